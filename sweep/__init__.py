@@ -1,0 +1,11 @@
+"""sweep: Numba-accelerated sweeps of the coefficient of restitution (CoR) of a bead hitting a
+floor through a nonlinear visco-elastic contact under a constant load.
+
+Reference: A. Chatterjee, G. James, B. Brogliato, *Approximate analytical coefficient of
+restitution formulation for single bead impact with external load, using nonlinear
+visco-elastic models*, INRIA hal-03462750 (2021) -- "the report" in docstrings.
+"""
+from sweep._version import __version__
+from sweep.model import MODELS, Status, scale
+
+__all__ = ["__version__", "MODELS", "Status", "scale"]
