@@ -5,7 +5,14 @@ Reference: A. Chatterjee, G. James, B. Brogliato, *Approximate analytical coeffi
 restitution formulation for single bead impact with external load, using nonlinear
 visco-elastic models*, INRIA hal-03462750 (2021) -- "the report" in docstrings.
 """
+from sweep._jit import kernel_cache
 from sweep._version import __version__
 from sweep.model import MODELS, Status, scale
 
-__all__ = ["__version__", "MODELS", "Status", "scale"]
+with kernel_cache():
+    from sweep.api import (DEFAULT_MAX_STEPS, DEFAULT_REST_TOL, DEFAULT_STEPS, METHODS,
+                           IntegrationResult, cor, cor_with_status, integrate)
+
+__all__ = ["__version__", "MODELS", "Status", "scale", "integrate", "cor", "cor_with_status",
+           "IntegrationResult", "METHODS", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS",
+           "DEFAULT_REST_TOL"]

@@ -1,0 +1,52 @@
+"""Where compiled kernels are cached, keyed by the package's source.
+
+numba's ``cache=True`` checks only the modification time of the file that defines a cached
+function, not of the modules it calls into: an edit to the step function would keep serving
+the old machine code. Kernel modules are therefore imported (and their dispatchers created,
+which is when numba picks the cache location) while ``numba.config.CACHE_DIR`` points to a
+directory named after a hash of every source file of the package and the numba version.
+The user's own setting is restored right after.
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+from pathlib import Path
+
+import numba
+
+_PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+def source_hash() -> str:
+    """Hash of the package's Python sources and the numba version."""
+    h = hashlib.sha256(numba.__version__.encode())
+    for path in sorted(_PACKAGE_DIR.rglob("*.py")):
+        h.update(path.relative_to(_PACKAGE_DIR).as_posix().encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def cache_dir() -> Path:
+    """Cache directory for this exact source tree (``$NUMBA_CACHE_DIR`` or ``~/.cache``)."""
+    base = os.environ.get("NUMBA_CACHE_DIR") or os.environ.get("XDG_CACHE_HOME") \
+        or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "sweep-numba" / source_hash()
+
+
+@contextlib.contextmanager
+def kernel_cache():
+    """Context in which ``@njit(cache=True)`` dispatchers cache under :func:`cache_dir`."""
+    previous = numba.config.CACHE_DIR
+    try:
+        path = cache_dir()
+        path.mkdir(parents=True, exist_ok=True)
+        numba.config.CACHE_DIR = str(path)
+    except OSError:  # unwritable home: numba falls back to its own locations
+        yield
+        return
+    try:
+        yield
+    finally:
+        numba.config.CACHE_DIR = previous

@@ -1,0 +1,590 @@
+"""Sweep configurations: TOML text -> validated, immutable configuration objects.
+
+A configuration is checked completely before anything is computed: unknown keys, wrong
+types, exponents below 1 (Assumption 1 of the report), negative damping or load and empty
+ranges raise :class:`ConfigError` with a message naming the key and the offending value,
+e.g. ``design.alpha.min: must be >= 1 (uniqueness is not known below 1), got 0.5``.
+
+Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` optional)::
+
+    title = "free text"
+    description = "free text"
+
+    [design]
+    kind = "grid"                  # "grid" | "doe"  (see DESIGN_KINDS to add kinds)
+    alpha = 1.5                    # grid axis: a number, a list, or a range table:
+    beta = [1.0, 1.5]
+    gamma = {start = 0.0, stop = 0.1, num = 1000}                  # linear by default
+    gtilde = {start = 1e-3, stop = 10.0, num = 50, spacing = "log"}
+
+    [design]                       # ... or a design of experiments over bounds
+    kind = "doe"
+    sampler = "sobol"              # "sobol" | "lhs" | "random"
+    n = 1000000
+    seed = 0
+    alpha = {min = 1.0, max = 3.0}
+    gamma = {min = 1e-4, max = 1.0, scale = "log"}                 # log-uniform
+    beta = 1.5                     # a number fixes the axis (not sampled)
+
+    [outputs]
+    e = ["numeric", "ord1"]        # or "all": variables e_<method>
+    fields = ["status", "error_ord1"]   # or "all" (sticks, t_f, u_max, n_steps, status,
+                                        # error_<m> for every approximation in e)
+
+    [integrator]                   # passed to sweep.api.integrate
+    steps = 2000
+    rest_tol = 1e-8
+    max_steps = 1000000
+
+    [options.ord2_approx]          # per-method options passed to sweep.api.cor
+    n = 21
+
+    [run]
+    chunk_size = 131072            # points per chunk (resume and progress granularity)
+
+This module sits on the lowest floor of the package: it imports nothing from ``sweep``
+(not the kernels, not numba), so it keeps its own list of method names; a test checks that
+it matches ``sweep.api.METHODS``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import hashlib
+import json
+import math
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+try:  # Python >= 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+__all__ = [
+    "ConfigError", "Config", "GridSpec", "DoESpec", "Bound", "Outputs", "IntegratorSettings",
+    "load", "loads", "PARAMETERS", "METHODS", "APPROXIMATIONS", "INTEGRATOR_FIELDS",
+    "DESIGN_KINDS", "SAMPLERS", "DEFAULT_CHUNK_SIZE",
+]
+
+#: The four scaled parameters of the report's eq. (2), in dataset dimension order.
+PARAMETERS = ("alpha", "beta", "gamma", "gtilde")
+
+#: CoR methods, as in ``sweep.api.METHODS`` ("numeric" is the integrator, the rest are the
+#: closed-form approximations of the report's Sections 4-5).
+METHODS = ("numeric", "ord1", "sp", "large_gtilde", "ord2_numint", "ord2_approx")
+APPROXIMATIONS = tuple(m for m in METHODS if m != "numeric")
+
+#: Per-point outputs of the numerical integration besides e (Sec. 2 of SPEC).
+INTEGRATOR_FIELDS = ("sticks", "t_f", "u_max", "n_steps", "status")
+
+#: Samplers of a design of experiments (scipy.stats.qmc, or plain pseudo-random).
+SAMPLERS = ("sobol", "lhs", "random")
+
+#: Largest design a Sobol' sampler can index (scipy's default 30-bit direction numbers).
+SOBOL_MAX_POINTS = 2 ** 30
+#: A Latin hypercube is a global permutation: scipy builds it whole in memory (d x n x 8 B).
+LHS_MAX_POINTS = 2 ** 24
+
+DEFAULT_CHUNK_SIZE = 2 ** 17
+
+#: Options accepted per approximation method: name -> (checker, description).
+METHOD_OPTIONS = {
+    "ord2_approx": {
+        "n": (lambda v: _is_int(v) and v >= 1 and v % 2 == 1,
+              "an odd integer >= 1 (number of Chebyshev nodes, eq. (49))"),
+    },
+}
+
+#: Domain of each parameter: (predicate, rule text), Assumption 1 of the report and signs.
+_DOMAIN = {
+    "alpha": (lambda v: v >= 1.0, ">= 1 (uniqueness is not known below 1)"),
+    "beta": (lambda v: v >= 1.0, ">= 1 (uniqueness is not known below 1)"),
+    "gamma": (lambda v: v >= 0.0, ">= 0"),
+    "gtilde": (lambda v: v >= 0.0, ">= 0 (a compressive load)"),
+}
+
+
+class ConfigError(ValueError):
+    """A configuration is invalid; the message names the key and the offending value."""
+
+
+# --------------------------------------------------------------------------- value checks
+
+def _is_int(v):
+    # TOML booleans are Python bools, which are ints: never accept them as numbers.
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_number(v):
+    return (_is_int(v) or isinstance(v, float)) and math.isfinite(v)
+
+
+class _Table:
+    """A TOML table being read: tracks its dotted path and which keys were consumed."""
+
+    def __init__(self, data, path, source):
+        self.data = data
+        self.path = path
+        self.source = source
+        self.used = set()
+
+    def key(self, name):
+        return f"{self.path}.{name}" if self.path else name
+
+    def error(self, name, message, value=dataclasses.MISSING):
+        where = f"{self.source}: " if self.source else ""
+        got = "" if value is dataclasses.MISSING else f", got {value!r}"
+        raise ConfigError(f"{where}{self.key(name)}: {message}{got}")
+
+    def has(self, name):
+        return name in self.data
+
+    def get(self, name, check, rule, default=dataclasses.MISSING):
+        """Read key ``name``, require ``check(value)``; absent -> default or error."""
+        self.used.add(name)
+        if name not in self.data:
+            if default is dataclasses.MISSING:
+                self.error(name, f"is required ({rule})")
+            return default
+        value = self.data[name]
+        if not check(value):
+            self.error(name, f"must be {rule}", value)
+        return value
+
+    def raw(self, name):
+        self.used.add(name)
+        return self.data[name]
+
+    def table(self, name, required=False):
+        self.used.add(name)
+        if name not in self.data:
+            if required:
+                self.error(name, "is required (a table)")
+            return _Table({}, self.key(name), self.source)
+        value = self.data[name]
+        if not isinstance(value, dict):
+            self.error(name, "must be a table", value)
+        return _Table(value, self.key(name), self.source)
+
+    def finish(self):
+        """Refuse keys that were never read (typos must not be silently ignored)."""
+        for name in self.data:
+            if name not in self.used:
+                hint = difflib.get_close_matches(name, sorted(self.used), n=1)
+                extra = f" (did you mean {hint[0]!r}?)" if hint else ""
+                allowed = ", ".join(sorted(self.used)) or "none"
+                self.error(name, f"unknown key{extra}; allowed keys here: {allowed}")
+
+
+def _check_domain(tab, key, name, value):
+    ok, rule = _DOMAIN[name]
+    if not ok(value):
+        tab.error(key, f"must be {rule}", value)
+
+
+# --------------------------------------------------------------------------- design specs
+
+@dataclasses.dataclass(frozen=True)
+class GridSpec:
+    """A full tensor grid over the four parameters (C order: alpha slowest, g~ fastest).
+
+    Attributes
+    ----------
+    axes : tuple of tuple of float
+        Coordinate values per parameter, in :data:`PARAMETERS` order.
+    """
+
+    axes: tuple
+    kind: str = "grid"
+
+    @property
+    def shape(self):
+        return tuple(len(a) for a in self.axes)
+
+    @property
+    def size(self):
+        return math.prod(self.shape)
+
+
+@dataclasses.dataclass(frozen=True)
+class Bound:
+    """Sampling law of one parameter in a design of experiments.
+
+    ``scale`` is "linear" (uniform on [lo, hi]), "log" (log-uniform) or "fixed" (lo == hi).
+    """
+
+    name: str
+    lo: float
+    hi: float
+    scale: str
+
+    @property
+    def fixed(self):
+        return self.scale == "fixed"
+
+
+@dataclasses.dataclass(frozen=True)
+class DoESpec:
+    """A design of experiments: ``n`` points drawn by ``sampler`` in the box ``bounds``."""
+
+    sampler: str
+    n: int
+    seed: int
+    scramble: bool
+    bounds: tuple
+    kind: str = "doe"
+
+    @property
+    def size(self):
+        return self.n
+
+    @property
+    def sampled(self):
+        """Parameters drawn by the sampler (the others are fixed), in PARAMETERS order."""
+        return tuple(b for b in self.bounds if not b.fixed)
+
+
+def _axis_values(start, stop, num, spacing):
+    """Coordinates of a range: ``np.linspace`` or ``np.geomspace`` (exact end points)."""
+    if spacing == "log":
+        vals = np.geomspace(start, stop, num)
+    else:
+        vals = np.linspace(start, stop, num)
+    return tuple(float(v) for v in vals)
+
+
+def _grid_axis(design, name):
+    """Parse one grid axis: a number, a non-empty list, or {values} / {start, stop, num}."""
+    if not design.has(name):
+        design.error(name, "is required (a number, a list, or {start, stop, num[, spacing]})")
+    value = design.raw(name)
+    if _is_number(value):
+        _check_domain(design, name, name, value)
+        return (float(value),)
+    if isinstance(value, list):
+        return _grid_list(design, name, value)
+    if not isinstance(value, dict):
+        design.error(name, "must be a number, a list of numbers, or a range table", value)
+    tab = _Table(value, design.key(name), design.source)
+    if tab.has("values"):
+        vals = _grid_list(tab, "values", tab.raw("values"))
+        tab.finish()
+        return vals
+    start = tab.get("start", _is_number, "a finite number")
+    stop = tab.get("stop", _is_number, "a finite number")
+    num = tab.get("num", _is_int, "an integer number of points >= 1")
+    spacing = tab.get("spacing", lambda v: v in ("linear", "log"), '"linear" or "log"', "linear")
+    tab.finish()
+    if num < 1:
+        tab.error("num", "must be >= 1 (an empty range)", num)
+    _check_domain(tab, "start", name, start)
+    _check_domain(tab, "stop", name, stop)
+    if num > 1 and not stop > start:
+        tab.error("stop", f"must be > start = {start!r} for {num} distinct points", stop)
+    if spacing == "log" and not start > 0:
+        tab.error("start", 'must be > 0 with spacing = "log"', start)
+    return _axis_values(start, stop, num, spacing)
+
+
+def _grid_list(tab, key, value):
+    if not isinstance(value, list) or not value:
+        tab.error(key, "must be a non-empty list of numbers (an empty axis)", value)
+    name = tab.path.split(".")[-1] if key == "values" else key
+    for v in value:
+        if not _is_number(v):
+            tab.error(key, "must contain only finite numbers", v)
+        _check_domain(tab, key, name, v)
+    if len(set(float(v) for v in value)) != len(value):
+        tab.error(key, "must not repeat a value (coordinates must be unique)", value)
+    return tuple(float(v) for v in value)
+
+
+def _parse_grid(design):
+    axes = tuple(_grid_axis(design, name) for name in PARAMETERS)
+    design.finish()
+    return GridSpec(axes=axes)
+
+
+def _doe_bound(design, name):
+    if not design.has(name):
+        design.error(name, "is required (a number to fix it, or {min, max[, scale]})")
+    value = design.raw(name)
+    if _is_number(value):
+        _check_domain(design, name, name, value)
+        return Bound(name, float(value), float(value), "fixed")
+    if not isinstance(value, dict):
+        design.error(name, "must be a number (fixed) or a table {min, max[, scale]}", value)
+    tab = _Table(value, design.key(name), design.source)
+    if tab.has("value"):
+        v = tab.get("value", _is_number, "a finite number")
+        tab.finish()
+        _check_domain(tab, "value", name, v)
+        return Bound(name, float(v), float(v), "fixed")
+    lo = tab.get("min", _is_number, "a finite number")
+    hi = tab.get("max", _is_number, "a finite number")
+    scale = tab.get("scale", lambda v: v in ("linear", "log"), '"linear" or "log"', "linear")
+    tab.finish()
+    _check_domain(tab, "min", name, lo)
+    _check_domain(tab, "max", name, hi)
+    if not hi > lo:
+        tab.error("max", f"must be > min = {lo!r} (an empty range; use value = x to fix it)", hi)
+    if scale == "log" and not lo > 0:
+        tab.error("min", 'must be > 0 with scale = "log"', lo)
+    return Bound(name, float(lo), float(hi), scale)
+
+
+def _parse_doe(design):
+    sampler = design.get("sampler", lambda v: v in SAMPLERS, " | ".join(map(repr, SAMPLERS)))
+    n = design.get("n", _is_int, "an integer number of points >= 1")
+    seed = design.get("seed", lambda v: _is_int(v) and v >= 0, "an integer >= 0", 0)
+    scramble = design.get("scramble", lambda v: isinstance(v, bool), "true or false", True)
+    bounds = tuple(_doe_bound(design, name) for name in PARAMETERS)
+    design.finish()
+    if n < 1:
+        design.error("n", "must be >= 1 (an empty design)", n)
+    if sampler == "sobol" and n > SOBOL_MAX_POINTS:
+        design.error("n", f"must be <= 2**30 = {SOBOL_MAX_POINTS} for the Sobol' sampler", n)
+    if sampler == "lhs" and n > LHS_MAX_POINTS:
+        design.error("n", f"must be <= {LHS_MAX_POINTS} for a Latin hypercube (built whole in "
+                          "memory); use sampler = \"sobol\" for larger designs", n)
+    if not any(not b.fixed for b in bounds):
+        design.error("kind", "a design of experiments needs at least one sampled parameter "
+                             "(all four are fixed; use a grid)", "doe")
+    if not scramble and sampler != "sobol":
+        design.error("scramble", "applies to the Sobol' sampler only", scramble)
+    return DoESpec(sampler=sampler, n=n, seed=seed, scramble=scramble, bounds=bounds)
+
+
+#: Design kinds: ``design.kind`` -> parser of the ``[design]`` table. A new kind (e.g. the
+#: physical "scene" mapped to (gamma, g~) by sweep.model.scale) registers its parser here
+#: and a matching builder in ``sweep.design.BUILDERS``; nothing else needs to change.
+DESIGN_KINDS: dict[str, Callable[[_Table], Any]] = {
+    "grid": _parse_grid,
+    "doe": _parse_doe,
+}
+
+
+# --------------------------------------------------------------------------- outputs
+
+@dataclasses.dataclass(frozen=True)
+class Outputs:
+    """What a sweep stores, and therefore what it must compute.
+
+    Attributes
+    ----------
+    methods : tuple of str
+        Methods whose CoR is stored as ``e_<method>``.
+    fields : tuple of str
+        Derived fields stored: integrator fields and ``error_<method>``.
+    """
+
+    methods: tuple
+    fields: tuple
+
+    @property
+    def variables(self):
+        """Names of the stored variables, in a stable order."""
+        return tuple(f"e_{m}" for m in self.methods) + self.fields
+
+    @property
+    def error_methods(self):
+        return tuple(f[len("error_"):] for f in self.fields if f.startswith("error_"))
+
+    @property
+    def needs_integration(self):
+        """The numerical integration runs (once) iff e_numeric, an integrator field or an
+        error field (which all compare against e_numeric) is requested."""
+        return ("numeric" in self.methods or any(f in INTEGRATOR_FIELDS for f in self.fields)
+                or bool(self.error_methods))
+
+    @property
+    def approximations(self):
+        """Approximations to evaluate: stored, or needed by an error field."""
+        wanted = set(self.methods) | set(self.error_methods)
+        return tuple(m for m in APPROXIMATIONS if m in wanted)
+
+
+def _name_list(tab, key, allowed, what):
+    value = tab.raw(key)
+    if value == "all":
+        return tuple(allowed)
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        tab.error(key, f'must be "all" or a list of {what} names', value)
+    seen = set()
+    for v in value:
+        if v in seen:
+            tab.error(key, "must not list a name twice", v)
+        seen.add(v)
+    return tuple(value)
+
+
+def _parse_outputs(tab):
+    methods = ()
+    if tab.has("e"):
+        methods = _name_list(tab, "e", METHODS, "method")
+        for m in methods:
+            if m not in METHODS:
+                tab.error("e", f"unknown method; expected one of {', '.join(METHODS)}", m)
+    fields = ()
+    if tab.has("fields"):
+        all_fields = INTEGRATOR_FIELDS + tuple(f"error_{m}" for m in APPROXIMATIONS
+                                               if m in methods)
+        fields = _name_list(tab, "fields", all_fields, "field")
+        for f in fields:
+            if f == "error_numeric":
+                tab.error("fields", "error fields compare an approximation with e_numeric; "
+                                    "error_numeric would be identically 0", f)
+            if f.startswith("error_"):
+                if f[len("error_"):] not in APPROXIMATIONS:
+                    tab.error("fields", "unknown approximation in error field; expected "
+                              f"error_<{'|'.join(APPROXIMATIONS)}>", f)
+            elif f not in INTEGRATOR_FIELDS:
+                tab.error("fields", f"unknown field; expected one of {', '.join(INTEGRATOR_FIELDS)}"
+                                    " or error_<method>", f)
+    tab.used.update({"e", "fields"})
+    tab.finish()
+    if not methods and not fields:
+        tab.error("e", "nothing to compute: request at least one method in outputs.e or a "
+                       "field in outputs.fields", [])
+    # Stable order whatever the order in the file: equal configs give equal datasets.
+    order = {name: i for i, name in enumerate(METHODS)}
+    methods = tuple(sorted(methods, key=order.__getitem__))
+    forder = {name: i for i, name in enumerate(
+        INTEGRATOR_FIELDS + tuple(f"error_{m}" for m in APPROXIMATIONS))}
+    fields = tuple(sorted(fields, key=forder.__getitem__))
+    return Outputs(methods=methods, fields=fields)
+
+
+# --------------------------------------------------------------------------- integrator
+
+@dataclasses.dataclass(frozen=True)
+class IntegratorSettings:
+    """Keyword arguments of ``sweep.api.integrate``; None means the package default."""
+
+    steps: int | None = None
+    rest_tol: float = 1e-8
+    max_steps: int | None = None
+
+    def kwargs(self):
+        return {"steps": self.steps, "rest_tol": self.rest_tol, "max_steps": self.max_steps}
+
+
+def _parse_integrator(tab):
+    pos_int = (lambda v: _is_int(v) and v >= 1, "an integer >= 1")
+    steps = tab.get("steps", *pos_int, None)
+    rest_tol = tab.get("rest_tol", lambda v: _is_number(v) and v > 0, "a number > 0", 1e-8)
+    max_steps = tab.get("max_steps", *pos_int, None)
+    tab.finish()
+    return IntegratorSettings(steps=steps, rest_tol=float(rest_tol), max_steps=max_steps)
+
+
+def _parse_options(tab):
+    options = {}
+    for method in list(tab.data):
+        if method not in METHODS:
+            tab.error(method, f"unknown method; expected one of {', '.join(METHODS)}")
+        sub = tab.table(method)
+        known = METHOD_OPTIONS.get(method, {})
+        opts = {}
+        for key in list(sub.data):
+            if key not in known:
+                allowed = ", ".join(known) or "none"
+                sub.error(key, f"unknown option for method {method!r}; allowed: {allowed}")
+            check, rule = known[key]
+            opts[key] = sub.get(key, check, rule)
+        sub.finish()
+        options[method] = opts
+    tab.finish()
+    return options
+
+
+# --------------------------------------------------------------------------- config
+
+@dataclasses.dataclass(frozen=True)
+class Config:
+    """A validated sweep configuration.
+
+    Attributes
+    ----------
+    text : str
+        The TOML text, stored verbatim in the output's global attributes.
+    sha256 : str
+        Hash of the canonical (parsed, key-sorted) configuration: comments and formatting do
+        not change it, any value does. Resume compares it.
+    """
+
+    text: str
+    source: str
+    title: str
+    description: str
+    design: Any
+    outputs: Outputs
+    integrator: IntegratorSettings
+    options: dict
+    chunk_size: int
+    sha256: str
+
+    @property
+    def size(self):
+        return self.design.size
+
+    def method_options(self, method):
+        return dict(self.options.get(method, {}))
+
+
+def loads(text, source=""):
+    """Parse and validate a configuration from TOML text.
+
+    Parameters
+    ----------
+    text : str
+        TOML document.
+    source : str, optional
+        Where it came from (prefixes error messages).
+
+    Raises
+    ------
+    ConfigError
+        On any invalid key or value, naming it.
+    """
+    where = f"{source}: " if source else ""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{where}not valid TOML: {exc}") from None
+    root = _Table(data, "", source)
+    title = root.get("title", lambda v: isinstance(v, str), "a string",
+                     Path(source).stem if source else "sweep")
+    description = root.get("description", lambda v: isinstance(v, str), "a string", "")
+    design = root.table("design", required=True)
+    kind = design.get("kind", lambda v: isinstance(v, str), "a string naming the design kind")
+    if kind not in DESIGN_KINDS:
+        design.error("kind", f"unknown design kind; expected one of {', '.join(DESIGN_KINDS)}",
+                     kind)
+    design_spec = DESIGN_KINDS[kind](design)
+    outputs = _parse_outputs(root.table("outputs", required=True))
+    integrator = _parse_integrator(root.table("integrator"))
+    options = _parse_options(root.table("options"))
+    run = root.table("run")
+    chunk_size = run.get("chunk_size", lambda v: _is_int(v) and v >= 1, "an integer >= 1",
+                         DEFAULT_CHUNK_SIZE)
+    run.finish()
+    root.finish()
+    canonical = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
+    return Config(text=text, source=str(source), title=title, description=description,
+                  design=design_spec, outputs=outputs, integrator=integrator, options=options,
+                  chunk_size=chunk_size,
+                  sha256=hashlib.sha256(canonical.encode()).hexdigest())
+
+
+def load(path):
+    """Read and validate the configuration file at ``path`` (see :func:`loads`)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read configuration: {exc.strerror}") from None
+    return loads(text, source=str(path))

@@ -1,0 +1,236 @@
+"""Designs: the points of a sweep, generated chunk by chunk on demand.
+
+A design maps a flat point index ``i`` in ``[0, size)`` to ``(alpha, beta, gamma, g~)``.
+Points are never materialised for the whole design (a 1e8-point design would need 3.2 GB):
+:meth:`Design.points` generates the points of one chunk ``[start, stop)``, and the value of
+point ``i`` never depends on how the design is cut into chunks -- that is what makes results
+independent of the chunk size and lets an interrupted run resume at any chunk.
+
+* :class:`GridDesign` -- a full tensor grid, flat index in C order over
+  (alpha, beta, gamma, g~): a chunk is ``np.unravel_index`` of its flat range.
+* :class:`DoEDesign` -- ``n`` points of a design of experiments in a box, uniform or
+  log-uniform per axis: scrambled Sobol' (``scipy.stats.qmc.Sobol``, first ``n`` points of
+  the seeded sequence, reached by ``fast_forward``), Latin hypercube (``scipy.stats.qmc
+  .LatinHypercube``, built once, it is a global permutation) or pseudo-random uniform
+  (counter-based blocks of a seeded ``SeedSequence``).
+
+New design kinds (the physical "scene" of a later issue) add a builder to :data:`BUILDERS`
+under the same ``design.kind`` as their parser in :data:`sweep.config.DESIGN_KINDS`.
+"""
+from __future__ import annotations
+
+import abc
+import math
+import warnings
+
+import numpy as np
+from scipy.stats import qmc
+
+from sweep.config import PARAMETERS, DoESpec, GridSpec
+
+__all__ = ["Design", "GridDesign", "DoEDesign", "build", "chunk_bounds", "BUILDERS"]
+
+
+def chunk_bounds(size, chunk_size):
+    """Split ``range(size)`` into consecutive chunks.
+
+    Returns
+    -------
+    list of (int, int)
+        ``(start, stop)`` per chunk; all of length ``chunk_size`` but the last.
+    """
+    if chunk_size < 1:
+        raise ValueError(f"chunk_size must be >= 1, got {chunk_size!r}")
+    return [(s, min(s + chunk_size, size)) for s in range(0, size, chunk_size)]
+
+
+class Design(abc.ABC):
+    """Base of all designs.
+
+    Attributes
+    ----------
+    kind : str
+        ``design.kind`` of the configuration.
+    size : int
+        Number of points.
+    dims : tuple of str
+        Dimensions of the stored variables: the four parameters for a grid, ``("point",)``
+        for scattered designs.
+    shape : tuple of int
+        Lengths of ``dims``; ``prod(shape) == size``.
+    """
+
+    kind: str
+    dims: tuple
+    shape: tuple
+
+    @property
+    def size(self):
+        return math.prod(self.shape)
+
+    @property
+    def axes(self):
+        """Coordinate arrays of grid dimensions (name -> 1-D array); empty if scattered."""
+        return {}
+
+    @abc.abstractmethod
+    def points(self, start, stop):
+        """Points ``start .. stop-1`` of the design.
+
+        Returns
+        -------
+        tuple of 4 ndarray
+            ``(alpha, beta, gamma, gtilde)``, contiguous float64 of length ``stop - start``.
+        """
+
+    def describe(self):
+        """One line for humans and the dataset's attributes."""
+        return f"{self.kind} design of {self.size} points"
+
+
+class GridDesign(Design):
+    """A full grid over (alpha, beta, gamma, g~); size-1 axes are kept as dimensions."""
+
+    kind = "grid"
+    dims = PARAMETERS
+
+    def __init__(self, spec: GridSpec):
+        self._axes = {name: np.asarray(vals, dtype=np.float64)
+                      for name, vals in zip(PARAMETERS, spec.axes)}
+        self.shape = tuple(a.size for a in self._axes.values())
+
+    @property
+    def axes(self):
+        return dict(self._axes)
+
+    def points(self, start, stop):
+        idx = np.unravel_index(np.arange(start, stop, dtype=np.int64), self.shape)
+        return tuple(np.ascontiguousarray(self._axes[name][i])
+                     for name, i in zip(PARAMETERS, idx))
+
+    def describe(self):
+        sizes = " x ".join(f"{n}[{s}]" for n, s in zip(self.dims, self.shape))
+        return f"grid design {sizes} = {self.size} points"
+
+
+class DoEDesign(Design):
+    """``n`` points of a design of experiments in a box (see the module docstring).
+
+    The unit-cube sample ``x`` of the sampled axes is mapped per axis to
+    ``lo + (hi - lo) x`` (uniform) or ``lo (hi/lo)^x`` (log-uniform); fixed axes repeat their
+    value.
+    """
+
+    kind = "doe"
+    dims = ("point",)
+    #: Block length of the pseudo-random sampler: block ``b`` is drawn from its own stream
+    #: ``SeedSequence(seed, spawn_key=(b,))``, so any chunk can be generated independently.
+    RANDOM_BLOCK = 2 ** 16
+
+    def __init__(self, spec: DoESpec):
+        self.spec = spec
+        self.shape = (spec.n,)
+        self._d = len(spec.sampled)
+        self._sobol = None          # cached engine and the index of its next point
+        self._sobol_next = 0
+        self._lhs = None
+
+    # -- unit-cube samples of the sampled axes, rows start..stop-1 -------------------------
+
+    def _unit_sobol(self, start, stop):
+        # Sequential chunks continue the cached engine (O(chunk)); any other start
+        # fast-forwards a fresh engine (O(start)). Point i is the i-th point of the seeded
+        # scrambled sequence either way.
+        if self._sobol is None or start < self._sobol_next:
+            self._sobol = _make_engine(qmc.Sobol, self._d, self.spec.seed,
+                                       scramble=self.spec.scramble)
+            self._sobol_next = 0
+        if start > self._sobol_next:
+            self._sobol.fast_forward(start - self._sobol_next)
+        with warnings.catch_warnings():
+            # scipy warns when the first draw is not a power of 2 long: balance properties
+            # hold for 2^m-point prefixes; a design of n points is by definition the first n
+            # points of the sequence, so the warning carries no information here.
+            warnings.filterwarnings("ignore", message=".*balance properties of Sobol",
+                                    category=UserWarning)
+            x = self._sobol.random(stop - start)
+        self._sobol_next = stop
+        return x
+
+    def _unit_lhs(self, start, stop):
+        if self._lhs is None:
+            self._lhs = _make_engine(qmc.LatinHypercube, self._d, self.spec.seed).random(
+                self.spec.n)
+        return self._lhs[start:stop]
+
+    def _unit_random(self, start, stop):
+        b0, b1 = start // self.RANDOM_BLOCK, (stop - 1) // self.RANDOM_BLOCK
+        blocks = []
+        for b in range(b0, b1 + 1):
+            rng = np.random.Generator(np.random.PCG64(
+                np.random.SeedSequence(self.spec.seed, spawn_key=(b,))))
+            blocks.append(rng.random((self.RANDOM_BLOCK, self._d)))
+        x = np.concatenate(blocks) if len(blocks) > 1 else blocks[0]
+        off = b0 * self.RANDOM_BLOCK
+        return x[start - off:stop - off]
+
+    def unit(self, start, stop):
+        """Unit-cube sample, shape ``(stop - start, d)`` with d the number of sampled axes."""
+        if not 0 <= start <= stop <= self.size:
+            raise IndexError(f"chunk [{start}, {stop}) outside the design [0, {self.size})")
+        if start == stop:
+            return np.empty((0, self._d))
+        return getattr(self, f"_unit_{self.spec.sampler}")(start, stop)
+
+    def points(self, start, stop):
+        x = self.unit(start, stop)
+        out = []
+        j = 0
+        for b in self.spec.bounds:
+            if b.fixed:
+                out.append(np.full(stop - start, b.lo))
+                continue
+            col = x[:, j]
+            j += 1
+            if b.scale == "log":
+                v = b.lo * np.exp(col * math.log(b.hi / b.lo))
+            else:
+                v = b.lo + (b.hi - b.lo) * col
+            # Rounding must not leave the box the configuration promised.
+            out.append(np.ascontiguousarray(np.clip(v, b.lo, b.hi)))
+        return tuple(out)
+
+    def describe(self):
+        axes = []
+        for b in self.spec.bounds:
+            if b.fixed:
+                axes.append(f"{b.name}={b.lo:g}")
+            else:
+                axes.append(f"{b.name} in [{b.lo:g}, {b.hi:g}]"
+                            + (" (log)" if b.scale == "log" else ""))
+        return (f"{self.spec.sampler} design of {self.size} points, seed {self.spec.seed}: "
+                + ", ".join(axes))
+
+
+def _make_engine(cls, d, seed, **kw):
+    # scipy >= 1.15 calls the seed `rng`; older versions only know `seed`.
+    try:
+        return cls(d, rng=seed, **kw)
+    except TypeError:  # pragma: no cover - scipy < 1.15
+        return cls(d, seed=seed, **kw)
+
+
+#: ``design.kind`` -> builder from the validated spec.
+BUILDERS = {
+    "grid": GridDesign,
+    "doe": DoEDesign,
+}
+
+
+def build(spec):
+    """Build the design object of a validated design spec (``Config.design``)."""
+    try:
+        builder = BUILDERS[spec.kind]
+    except KeyError:
+        raise ValueError(f"no design builder for design.kind {spec.kind!r}") from None
+    return builder(spec)
