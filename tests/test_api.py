@@ -1,0 +1,116 @@
+"""The public API: broadcasting, scalars, validation, statuses, parallel/serial identity."""
+import concurrent.futures
+
+import numba
+import numpy as np
+import pytest
+
+import sweep
+from sweep import Status
+
+
+def test_broadcast_shape_and_types():
+    r = sweep.integrate(1.5, 1.5, np.array([[1e-3], [1e-2], [1e-1]]), np.array([0.0, 0.05, 1.0, 10.0]),
+                        steps=24)
+    for name in ("e", "sticks", "t_f", "u_max", "n_steps", "status"):
+        assert getattr(r, name).shape == (3, 4), name
+    assert r.e.dtype == np.float64 and r.sticks.dtype == bool
+    assert r.status.dtype == np.int8 and r.n_steps.dtype == np.int64
+    e = sweep.cor(1.5, 1.5, np.array([[1e-3], [1e-2], [1e-1]]), np.array([0.0, 0.05, 1.0, 10.0]), steps=24)
+    np.testing.assert_array_equal(e, r.e)
+
+
+def test_scalar_call_returns_python_scalars():
+    r = sweep.integrate(1.5, 1.5, 0.05, 0.1)
+    assert isinstance(r.e, float) and isinstance(r.sticks, bool)
+    assert isinstance(r.n_steps, int) and r.status is Status.OK
+    assert 0.0 < r.e < 1.0 and r.t_f > 0 and r.u_max > 0
+    assert isinstance(sweep.cor(1.5, 1.5, 0.05, 0.1), float)
+
+
+@pytest.mark.parametrize("args, name", [
+    ((0.9, 1.5, 0.1, 0.1), "alpha"), ((1.5, 0.99, 0.1, 0.1), "beta"),
+    ((1.5, 1.5, -0.1, 0.1), "gamma"), ((1.5, 1.5, 0.1, -1.0), "gtilde"),
+    ((1.5, 1.5, np.nan, 0.1), "gamma"), ((1.5, 1.5, 0.1, np.inf), "gtilde"),
+])
+def test_scalar_invalid_raises_naming_argument(args, name):
+    with pytest.raises(ValueError, match=name):
+        sweep.integrate(*args)
+    with pytest.raises(ValueError, match=name):
+        sweep.cor(*args)
+
+
+def test_invalid_points_do_not_spoil_neighbours():
+    alpha = np.array([1.5, 0.5, 1.5, 1.5, 1.5, 1.5])
+    gamma = np.array([0.1, 0.1, -1.0, np.nan, 0.1, 0.2])
+    gtilde = np.array([0.2, 0.2, 0.2, 0.2, np.inf, 0.2])
+    r = sweep.integrate(alpha, 1.5, gamma, gtilde, steps=24)
+    bad = np.array([False, True, True, True, True, False])
+    assert np.all(r.status[bad] == Status.INVALID) and np.all(np.isnan(r.e[bad]))
+    assert not r.sticks[bad].any()
+    alone = sweep.integrate(1.5, 1.5, np.array([0.1, 0.2]), 0.2, steps=24)
+    np.testing.assert_array_equal(r.e[~bad], alone.e)
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    (dict(steps=0), "steps"), (dict(steps=np.nan), "steps"), (dict(rest_tol=0.0), "rest_tol"),
+    (dict(max_steps=0), "max_steps"), (dict(max_steps=2.5), "max_steps"),
+])
+def test_bad_settings_raise(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        sweep.integrate(1.5, 1.5, 0.1, 0.1, **kwargs)
+
+
+def test_unknown_method_raises():
+    with pytest.raises(ValueError, match="nonsense"):
+        sweep.cor(1.5, 1.5, 0.1, 0.1, method="nonsense")
+
+
+def test_budget_exhaustion_is_reported():
+    r = sweep.integrate(1.5, 1.5, np.array([0.01, 0.02]), 0.1, max_steps=10)
+    assert np.all(r.status == Status.BUDGET_EXHAUSTED)
+    assert np.all(r.n_steps <= 10) and np.all(np.isfinite(r.e)) and not r.sticks.any()
+
+
+def _grid(n=3000, seed=1):
+    rng = np.random.default_rng(seed)
+    return (rng.uniform(1, 3, n), rng.uniform(1, 3, n), 10 ** rng.uniform(-4, 0.5, n),
+            np.where(rng.random(n) < 0.1, 0.0, 10 ** rng.uniform(-3, 1.5, n)))
+
+
+def _same(a, b):
+    for name in ("e", "t_f", "u_max", "n_steps", "status"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+
+
+def test_parallel_serial_and_thread_counts_agree_bitwise():
+    pts = _grid()
+    ref = sweep.integrate(*pts, steps=24, parallel=False)
+    _same(sweep.integrate(*pts, steps=24, parallel=True), ref)
+    old = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        _same(sweep.integrate(*pts, steps=24), ref)
+    finally:
+        numba.set_num_threads(old)
+    # Order and chunking do not matter either.
+    rev = sweep.integrate(*(p[::-1] for p in pts), steps=24)
+    np.testing.assert_array_equal(rev.e[::-1], ref.e)
+
+
+def test_calls_from_worker_threads_are_safe_and_identical():
+    pts = _grid(800, seed=2)
+    ref = sweep.integrate(*pts, steps=24)
+    with concurrent.futures.ThreadPoolExecutor(4) as pool:
+        futs = [pool.submit(sweep.integrate, *pts, steps=24) for _ in range(4)]
+        for f in futs:
+            _same(f.result(), ref)
+
+
+def test_sticks_is_e_zero_for_decided_points():
+    pts = _grid(2000, seed=3)
+    r = sweep.integrate(*pts, steps=24)
+    decided = r.status != Status.BUDGET_EXHAUSTED
+    np.testing.assert_array_equal(r.sticks[decided], r.e[decided] == 0.0)
+    assert np.all(r.e[r.status == Status.OK] > 0)
+    assert np.all((r.e >= 0) & (r.e <= 1))
