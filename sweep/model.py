@@ -42,8 +42,8 @@ class Status(enum.IntEnum):
     STUCK = 1
     #: Converged to rest, ``max(|u - u-bar|, |v|) < rest_tol`` (report, Sec. 3): ``e = 0``.
     AT_REST = 2
-    #: The step budget ran out before the outcome was decided. ``e`` is the bead's current
-    #: rebound speed estimate ``max(-v, 0)``, not a converged value.
+    #: The step budget ran out before the outcome was decided. ``e = sqrt(2 H)``, the bound
+    #: on the rebound speed set by the energy still available, not a converged value.
     BUDGET_EXHAUSTED = 3
     #: Invalid input (alpha < 1, beta < 1, gamma < 0, g~ < 0, non-finite, or an
     #: approximation used outside its domain): ``e = NaN``.

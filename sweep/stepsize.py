@@ -2,18 +2,23 @@
 
 Base step
 ---------
-Each point gets one step ``h = pi / (steps * lambda)`` where ``lambda`` is the fastest rate of
-the contact at the undamped maximum compression ``u_M`` (root of (13), an upper bound of the
-damped compression)::
+Each point gets one step ``h = pi / (steps * omega_M * D)``: ``omega_M = sqrt(alpha
+u_M^(alpha-1))`` is the linearised elastic frequency at the undamped maximum compression
+``u_M`` (root of (13), an upper bound of the damped one), so ``steps`` counts steps per half
+period of the stiffest elastic oscillation the impact can see (steps per impact for the
+linear spring-dashpot, whose contact lasts pi). ``D = min((1 + 2|V(u-bar)|)^(1/5), 16)``
+accounts for large loads: the bead swings through a potential well of depth
+``|V(u-bar)| = g~ u-bar alpha/(alpha+1)`` and ``e^2/2`` is what is left of it, so absolute
+errors in e scale with the depth; the step shrinks like its fifth root (the method's order)
+up to the point where roundoff in the state (which grows with the depth too) would win.
 
-    lambda = max( sqrt(alpha u_M^(alpha-1)),  gamma beta u_M^(beta-1) )
-
-i.e. the larger of the linearised elastic frequency and the linearised damping rate there.
-``pi / lambda`` is the half period of the stiffest linear oscillation the impact can see, so
-``steps`` is the number of steps per half period ("steps per impact" for the linear
-spring-dashpot, where the contact lasts pi): one knob for the resolution. Because
-``h lambda <= pi / steps``, heavy damping never leaves the stability region of the explicit
-method.
+Damping cap
+-----------
+Where damping is stiffer than elasticity the step is also capped by the local damping rate,
+``s <= pi / (steps * gamma beta u^(beta-1))``: heavy damping then never leaves the explicit
+method's stability region, while the cap follows the bead's actual compression (far below
+``u_M`` when damping is heavy) instead of a worst case. Points whose damping rate at ``u_M``
+stays below ``omega_M D`` never need the cap and skip its cost.
 
 Grading near u = 0
 ------------------
@@ -33,25 +38,47 @@ import numba as nb
 
 from sweep.special import umax_undamped
 
-__all__ = ["GRADE_RATIO", "GRADE_FIRST", "base_step", "needs_grading", "graded_step"]
+__all__ = ["GRADE_RATIO", "GRADE_FIRST", "MAX_DEPTH_FACTOR", "base_step", "damping_limited",
+           "damping_step", "needs_grading", "graded_step"]
 
 #: Ratio of step to distance from u = 0 inside the graded zone.
 GRADE_RATIO = 0.25
 #: Smallest graded step as a fraction of the base step.
 GRADE_FIRST = 0.01
+#: Cap of the load factor D (beyond it roundoff in the state dominates).
+MAX_DEPTH_FACTOR = 16.0
 
 
 @nb.njit(inline="always")
-def base_step(alpha, beta, gamma, gtilde, steps):
-    """Base step ``h = pi / (steps * lambda)`` (module docstring)."""
-    um = umax_undamped(alpha, gtilde)
-    elastic = math.sqrt(alpha * um ** (alpha - 1.0))
-    damping = gamma * beta * um ** (beta - 1.0)
-    # Under a large load the bead swings through a potential well of depth
-    # |V(u-bar)| = g~ u-bar alpha/(alpha+1) and e^2/2 is what is left of it: absolute errors
-    # in e scale with the depth, so the step shrinks like its fifth root (method order 5).
+def _depth_factor(alpha, gtilde):
     depth = gtilde * gtilde ** (1.0 / alpha) * alpha / (alpha + 1.0) if gtilde > 0.0 else 0.0
-    return math.pi / (steps * max(elastic, damping) * (1.0 + 2.0 * depth) ** 0.2)
+    return min((1.0 + 2.0 * depth) ** 0.2, MAX_DEPTH_FACTOR)
+
+
+@nb.njit(inline="always")
+def base_step(alpha, gtilde, steps):
+    """Base step ``h = pi / (steps * omega_M * D)`` (module docstring)."""
+    um = umax_undamped(alpha, gtilde)
+    return math.pi / (steps * math.sqrt(alpha * um ** (alpha - 1.0)) * _depth_factor(alpha, gtilde))
+
+
+@nb.njit(inline="always")
+def damping_limited(alpha, beta, gamma, gtilde):
+    """Whether the damping cap can bind: damping rate at u_M above ``omega_M D``."""
+    um = umax_undamped(alpha, gtilde)
+    return gamma * beta * um ** (beta - 1.0) > math.sqrt(alpha * um ** (alpha - 1.0)) * _depth_factor(alpha, gtilde)
+
+
+@nb.njit(inline="always")
+def damping_step(u, beta, gamma, steps):
+    """Cap ``pi / (steps * gamma beta u^(beta-1))`` (inf where the rate vanishes)."""
+    if beta == 1.0:
+        rate = gamma
+    elif u > 0.0:
+        rate = gamma * beta * u ** (beta - 1.0)
+    else:
+        rate = 0.0
+    return math.pi / (steps * rate) if rate > 0.0 else math.inf
 
 
 @nb.njit(inline="always")
