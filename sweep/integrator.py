@@ -54,7 +54,7 @@ from sweep.stepsize import (GRADE_FIRST, GRADE_RATIO, base_step, damping_limited
 __all__ = ["integrate_arrays", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL"]
 
 #: Steps per half period of the stiffest linearised motion (see :mod:`sweep.stepsize`).
-DEFAULT_STEPS = 64
+DEFAULT_STEPS = 96
 #: Step budget per point (all Runge-Kutta steps, refinements included).
 DEFAULT_MAX_STEPS = 200_000
 #: Rest tolerance of the report (Sec. 3).
