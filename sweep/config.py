@@ -32,7 +32,7 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
                                         # error_<m> for every approximation in e)
 
     [integrator]                   # passed to sweep.api.integrate
-    steps = 2000
+    steps = 64                     # per half period of the linearised motion
     rest_tol = 1e-8
     max_steps = 1000000
 
@@ -464,7 +464,7 @@ def _parse_outputs(tab):
 class IntegratorSettings:
     """Keyword arguments of ``sweep.api.integrate``; None means the package default."""
 
-    steps: int | None = None
+    steps: float | None = None
     rest_tol: float = 1e-8
     max_steps: int | None = None
 
@@ -474,7 +474,8 @@ class IntegratorSettings:
 
 def _parse_integrator(tab):
     pos_int = (lambda v: _is_int(v) and v >= 1, "an integer >= 1")
-    steps = tab.get("steps", *pos_int, None)
+    steps = tab.get("steps", lambda v: _is_number(v) and v >= 2,
+                    "a number >= 2 (steps per half period of the linearised motion)", None)
     rest_tol = tab.get("rest_tol", lambda v: _is_number(v) and v > 0, "a number > 0", 1e-8)
     max_steps = tab.get("max_steps", *pos_int, None)
     tab.finish()
@@ -556,6 +557,10 @@ def loads(text, source=""):
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{where}not valid TOML: {exc}") from None
     root = _Table(data, "", source)
+    # Unknown top-level keys first: a misspelt table name must not surface as "missing".
+    root.used.update({"title", "description", "design", "outputs", "integrator", "options",
+                      "run"})
+    root.finish()
     title = root.get("title", lambda v: isinstance(v, str), "a string",
                      Path(source).stem if source else "sweep")
     description = root.get("description", lambda v: isinstance(v, str), "a string", "")

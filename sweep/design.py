@@ -134,6 +134,7 @@ class DoEDesign(Design):
         self._sobol = None          # cached engine and the index of its next point
         self._sobol_next = 0
         self._lhs = None
+        self._block = None
 
     # -- unit-cube samples of the sampled axes, rows start..stop-1 -------------------------
 
@@ -163,13 +164,17 @@ class DoEDesign(Design):
                 self.spec.n)
         return self._lhs[start:stop]
 
-    def _unit_random(self, start, stop):
-        b0, b1 = start // self.RANDOM_BLOCK, (stop - 1) // self.RANDOM_BLOCK
-        blocks = []
-        for b in range(b0, b1 + 1):
+    def _random_block(self, b):
+        # The last block is kept: chunks smaller than a block reuse it.
+        if self._block is None or self._block[0] != b:
             rng = np.random.Generator(np.random.PCG64(
                 np.random.SeedSequence(self.spec.seed, spawn_key=(b,))))
-            blocks.append(rng.random((self.RANDOM_BLOCK, self._d)))
+            self._block = (b, rng.random((self.RANDOM_BLOCK, self._d)))
+        return self._block[1]
+
+    def _unit_random(self, start, stop):
+        b0, b1 = start // self.RANDOM_BLOCK, (stop - 1) // self.RANDOM_BLOCK
+        blocks = [self._random_block(b) for b in range(b0, b1 + 1)]
         x = np.concatenate(blocks) if len(blocks) > 1 else blocks[0]
         off = b0 * self.RANDOM_BLOCK
         return x[start - off:stop - off]

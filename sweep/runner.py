@@ -1,0 +1,439 @@
+"""Chunked, resumable execution of a sweep.
+
+The design is cut into chunks of ``chunk_size`` consecutive points (flat index). For each
+chunk the runner generates the points (:mod:`sweep.design`), computes exactly the requested
+outputs (:func:`compute_chunk`, which calls :mod:`sweep.api`), saves the chunk for resuming
+and writes it into the output being assembled (:mod:`sweep.store`). Memory is bounded by a
+few chunks, whatever the design size.
+
+Two executors:
+
+* local (default): chunks are fed one after another, from the main thread, to the api
+  functions, which already run in parallel on all cores (numba ``prange``). Overlapping the
+  writing with the computation would need the kernels to release the GIL; they do not, so
+  the writing is done in between, and it is cheap (see benchmarks/end_to_end.py).
+* distributed: ``scheduler="tcp://host:port"`` (or a ``distributed.Client``) submits chunks
+  to a Dask cluster, keeping a bounded number in flight; results are written as they come
+  back, in any order. Worker threads run the api's serial kernels unless numba's threading
+  layer is thread-safe (decided by the api).
+
+Every chunk's values depend only on its points, and point ``i`` of a design never depends on
+the chunking, so results are identical for any chunk size, thread count or executor.
+"""
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import hashlib
+import importlib.metadata
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from sweep import api
+from sweep import config as _config
+from sweep import design as _design
+from sweep import store
+from sweep._version import __version__
+
+__all__ = ["ComputePlan", "compute_chunk", "run", "RunResult", "default_output",
+           "source_sha256"]
+
+
+# --------------------------------------------------------------------------- computing
+
+@dataclasses.dataclass(frozen=True)
+class ComputePlan:
+    """What :func:`compute_chunk` computes: picklable, so it can travel to Dask workers.
+
+    Attributes
+    ----------
+    integrate : bool
+        Run :func:`sweep.api.integrate` (once per chunk; e_numeric, the integrator fields
+        and every error field share it).
+    integrator : dict
+        Its keyword arguments (steps, rest_tol, max_steps).
+    approximations : tuple of str
+        Approximations evaluated by :func:`sweep.api.cor` (stored or needed by an error).
+    options : dict
+        Per-method keyword arguments of :func:`sweep.api.cor`.
+    variables : tuple of str
+        Variables returned, in storage order.
+    """
+
+    integrate: bool
+    integrator: dict
+    approximations: tuple
+    options: dict
+    variables: tuple
+
+    @classmethod
+    def from_config(cls, cfg):
+        out = cfg.outputs
+        return cls(integrate=out.needs_integration, integrator=cfg.integrator.kwargs(),
+                   approximations=out.approximations,
+                   options={m: cfg.method_options(m) for m in out.approximations},
+                   variables=out.variables)
+
+
+def compute_chunk(plan, alpha, beta, gamma, gtilde):
+    """Compute the requested outputs at a chunk of points.
+
+    Parameters
+    ----------
+    plan : ComputePlan
+    alpha, beta, gamma, gtilde : ndarray
+        Flat float64 arrays of equal length (scaled parameters of eq. (2)).
+
+    Returns
+    -------
+    arrays : dict of str -> ndarray
+        One flat array per variable of ``plan.variables``, in the store's dtype.
+    seconds : float
+        Time spent inside the api calls (the kernels) [s].
+    """
+    t0 = time.perf_counter()
+    res = None
+    if plan.integrate:
+        res = api.integrate(alpha, beta, gamma, gtilde, **plan.integrator)
+    approx = {m: api.cor(alpha, beta, gamma, gtilde, method=m, **plan.options.get(m, {}))
+              for m in plan.approximations}
+    seconds = time.perf_counter() - t0
+    arrays = {}
+    for name in plan.variables:
+        if name == "e_numeric":
+            value = res.e
+        elif name.startswith("e_"):
+            value = approx[name[2:]]
+        elif name.startswith("error_"):
+            # The integration ran once above; every error field shares it.
+            value = approx[name[6:]] - res.e
+        else:
+            value = getattr(res, name)
+        dtype, _ = store.variable_spec(name)
+        arrays[name] = np.ascontiguousarray(value, dtype=dtype).reshape(-1)
+    return arrays, seconds
+
+
+# --------------------------------------------------------------------------- running
+
+@dataclasses.dataclass
+class RunResult:
+    """What a run did.
+
+    Attributes
+    ----------
+    output : Path
+    n_points : int
+        Size of the design.
+    computed_points : int
+        Points computed by this call (the rest were resumed from saved chunks).
+    wall_seconds : float
+        Duration of this call [s].
+    kernel_seconds : float
+        Time spent in the api kernels during this call [s].
+    up_to_date : bool
+        The output already existed with the same configuration: nothing was done.
+    """
+
+    output: Path
+    n_points: int
+    computed_points: int = 0
+    wall_seconds: float = 0.0
+    kernel_seconds: float = 0.0
+    up_to_date: bool = False
+    chunks: int = 0
+    resumed_chunks: int = 0
+
+    @property
+    def points_per_second(self):
+        return self.computed_points / self.wall_seconds if self.wall_seconds > 0 else float("nan")
+
+    @property
+    def outside_fraction(self):
+        """Fraction of the wall time spent outside the kernels (design, saving, writing)."""
+        if self.wall_seconds <= 0:
+            return float("nan")
+        return 1.0 - self.kernel_seconds / self.wall_seconds
+
+
+def default_output(cfg):
+    """``<config file stem>.nc`` in the current directory."""
+    stem = Path(cfg.source).stem if cfg.source else "sweep"
+    return Path(stem + ".nc")
+
+
+def _version(dist):
+    try:
+        return importlib.metadata.version(dist)
+    except importlib.metadata.PackageNotFoundError:  # pragma: no cover
+        return "unknown"
+
+
+def source_sha256():
+    """Hash of the package's Python sources.
+
+    Two runs of one configuration give identical results only with identical code; the
+    version number alone does not see a local edit. Resuming, and reusing an existing
+    output, therefore also require the same source hash.
+    """
+    package = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for path in sorted(package.rglob("*.py")):
+        h.update(path.relative_to(package).as_posix().encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()
+
+
+def _layout(design):
+    if design.axes:
+        return store.Layout(dims=design.dims, shape=design.shape, axes=design.axes)
+    return store.Layout(dims=design.dims, shape=design.shape, axes={},
+                        point_coords=_config.PARAMETERS)
+
+
+def _static_attrs(cfg, design, plan, chunk_size):
+    now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
+    attrs = {
+        "title": cfg.title,
+        "summary": cfg.description or cfg.title,
+        "Conventions": "CF-1.10",
+        "source": f"sweep {__version__} (numba {_version('numba')}, numpy {np.__version__})",
+        "references": store.REPORT,
+        "history": f"{now} sweep run {cfg.source or '<text>'}",
+        "date_created": now,
+        "sweep_version": __version__,
+        "sweep_source_sha256": source_sha256(),
+        "numba_version": _version("numba"),
+        "numpy_version": np.__version__,
+        "scipy_version": _version("scipy"),
+        "python_version": platform.python_version(),
+        "sweep_config": cfg.text,
+        "sweep_config_source": cfg.source,
+        "sweep_config_sha256": cfg.sha256,
+        "design_kind": design.kind,
+        "design": design.describe(),
+        "n_points": design.size,
+        "chunk_size": chunk_size,
+        "outputs": " ".join(plan.variables),
+    }
+    if plan.integrate:
+        s = plan.integrator
+        attrs.update({
+            "integrator": "fixed-step Dormand-Prince 5(4), three phases of Algorithm 1",
+            "integrator_steps": float(api.DEFAULT_STEPS if s["steps"] is None else s["steps"]),
+            "integrator_rest_tol": float(s["rest_tol"]),
+            "integrator_max_steps": int(api.DEFAULT_MAX_STEPS if s["max_steps"] is None
+                                        else s["max_steps"]),
+        })
+    else:
+        attrs["integrator"] = "not run (no requested output needs the numerical integration)"
+    for method, opts in plan.options.items():
+        for key, value in opts.items():
+            attrs[f"options_{method}_{key}"] = value
+    return attrs
+
+
+def _progress(total, initial, quiet, desc):
+    from tqdm.auto import tqdm
+
+    disable = quiet or not sys.stderr.isatty()
+    return tqdm(total=total, initial=initial, unit="pt", unit_scale=True, desc=desc,
+                disable=disable, dynamic_ncols=True, smoothing=0.1)
+
+
+def _local_executor(plan, tasks):
+    for index, start, stop, points in tasks:
+        arrays, seconds = compute_chunk(plan, *(points[k] for k in _config.PARAMETERS))
+        yield index, start, stop, points, arrays, seconds
+
+
+def _dask_executor(plan, tasks, scheduler):
+    from distributed import Client, as_completed
+
+    own = not isinstance(scheduler, Client)
+    client = Client(scheduler) if own else scheduler
+    try:
+        # A bounded number of chunks in flight keeps memory bounded on both sides.
+        window = max(2, 2 * sum(client.nthreads().values()))
+        futures = as_completed()
+        meta = {}
+        tasks = iter(tasks)
+
+        def submit_next():
+            for index, start, stop, points in tasks:
+                fut = client.submit(compute_chunk, plan,
+                                    *(points[k] for k in _config.PARAMETERS),
+                                    pure=False, key=f"sweep-chunk-{index}-{id(meta)}")
+                meta[fut.key] = (index, start, stop, points)
+                futures.add(fut)
+                return True
+            return False
+
+        for _ in range(window):
+            if not submit_next():
+                break
+        for fut in futures:
+            arrays, seconds = fut.result()
+            index, start, stop, points = meta.pop(fut.key)
+            fut.release()
+            yield index, start, stop, points, arrays, seconds
+            submit_next()
+    finally:
+        if own:
+            client.close()
+
+
+def run(cfg, output=None, *, restart=False, quiet=False, chunk_size=None, scheduler=None,
+        log=None):
+    """Run a sweep and write its dataset.
+
+    Parameters
+    ----------
+    cfg : Config or path-like
+        A validated configuration, or the path of a TOML configuration file.
+    output : path-like, optional
+        Output netCDF file (default :func:`default_output`).
+    restart : bool
+        Discard saved partial results (and overwrite an existing output) instead of
+        resuming.
+    quiet : bool
+        No progress bar, no messages.
+    chunk_size : int, optional
+        Points per chunk (default: the configuration's ``run.chunk_size``).
+    scheduler : str or distributed.Client, optional
+        Address of a Dask scheduler (``tcp://host:port``): run the chunks on that cluster.
+    log : callable, optional
+        Receives progress messages (default: print to stderr unless quiet).
+
+    Returns
+    -------
+    RunResult
+
+    Raises
+    ------
+    sweep.config.ConfigError
+        Invalid configuration.
+    sweep.store.ResumeError
+        Saved partial results or an existing output do not match this configuration.
+    """
+    t_start = time.perf_counter()
+    if not isinstance(cfg, _config.Config):
+        cfg = _config.load(cfg)
+    if log is None:
+        log = (lambda msg: None) if quiet else (lambda msg: print(msg, file=sys.stderr))
+    output = Path(output) if output is not None else default_output(cfg)
+    chunk_size = int(chunk_size or cfg.chunk_size)
+    unknown = set(cfg.outputs.methods) - set(api.METHODS)
+    if unknown:  # config.METHODS and api.METHODS drifted apart
+        raise _config.ConfigError(f"methods {sorted(unknown)} are not provided by sweep.api")
+    design = _design.build(cfg.design)
+    plan = ComputePlan.from_config(cfg)
+    result = RunResult(output=output, n_points=design.size)
+
+    if output.exists() and not restart:
+        attrs = store.read_global_attrs(output)
+        if (attrs and attrs.get("sweep_config_sha256") == cfg.sha256
+                and attrs.get("sweep_version") == __version__
+                and attrs.get("sweep_source_sha256") == source_sha256()
+                and not store.partial_dir(output).exists()):
+            log(f"{output} is up to date (same configuration and version); nothing to do. "
+                "Use --restart to recompute it.")
+            result.up_to_date = True
+            return result
+        what = ("was made by a different configuration or version of sweep" if attrs
+                else "is not a sweep output")
+        raise store.ResumeError(f"{output} exists and {what}; use --restart to overwrite "
+                                "it, or choose another output with -o")
+
+    chunks = _design.chunk_bounds(design.size, chunk_size)
+    manifest = {
+        "config_sha256": cfg.sha256,
+        "sweep_version": __version__,
+        "sweep_source_sha256": source_sha256(),
+        "output": output.name,
+        "n_points": design.size,
+        "chunk_size": chunk_size,
+        "variables": list(plan.variables),
+        "design": design.describe(),
+    }
+    partial = store.PartialStore(output, manifest)
+    done = partial.open(restart=restart)
+    writer = None
+    try:
+        layout = _layout(design)
+        writer = store.NetCDFWriter(partial.assembling, layout, plan.variables,
+                                    _static_attrs(cfg, design, plan, chunk_size))
+        done = {i for i in done if i < len(chunks)}
+        done_points = sum(chunks[i][1] - chunks[i][0] for i in done)
+        log(f"sweep: {design.describe()}; {len(chunks)} chunks of <= {chunk_size} points"
+            + (f"; resuming, {len(done)} chunks already done" if done else ""))
+        totals = {"wall": 0.0, "kernel": 0.0}   # over all sessions, from the chunk files
+        last = time.perf_counter()
+
+        def account(wall, kernel):
+            totals["wall"] += wall
+            totals["kernel"] += kernel
+
+        def tasks():
+            """Chunks to compute, in order; saved chunks are copied into the output on the
+            way (in order, so storage chunks are written sequentially)."""
+            for index, (start, stop) in enumerate(chunks):
+                need_points = index not in done or layout.point_coords
+                points = (dict(zip(_config.PARAMETERS, design.points(start, stop)))
+                          if need_points else None)
+                if index in done:
+                    loaded = partial.load_chunk(index, start, stop)
+                    if loaded is not None:
+                        arrays, (wall, kernel) = loaded[0], loaded[1]
+                        writer.write(start, stop, arrays, points)
+                        account(wall, kernel)
+                        result.resumed_chunks += 1
+                        continue
+                    log(f"chunk {index}: saved file unreadable, recomputing it")
+                    done.discard(index)
+                    bar.update(-(stop - start))  # it was counted as done at the start
+                    if points is None:
+                        points = dict(zip(_config.PARAMETERS, design.points(start, stop)))
+                yield index, start, stop, points
+
+        with _progress(design.size, done_points, quiet, output.name) as bar:
+            executor = (_local_executor(plan, tasks()) if scheduler is None
+                        else _dask_executor(plan, tasks(), scheduler))
+            for index, start, stop, points, arrays, kernel in executor:
+                # A chunk's wall time runs from the end of the previous one's computation
+                # (so its own saving and writing count towards the next chunk).
+                now = time.perf_counter()
+                wall, last = now - last, now
+                partial.save_chunk(index, start, stop, arrays, [wall, kernel])
+                writer.write(start, stop, arrays, points)
+                account(wall, kernel)
+                result.computed_points += stop - start
+                result.kernel_seconds += kernel
+                bar.update(stop - start)
+        result.chunks = len(chunks)
+        run_time = totals["wall"]
+        writer.set_attrs({
+            "run_time_s": round(run_time, 3),
+            "kernel_time_s": round(totals["kernel"], 3),
+            "points_per_second": round(design.size / run_time, 1) if run_time > 0 else -1.0,
+        })
+        writer.close()
+        store.commit(partial.assembling, output)
+        partial.remove()
+    except KeyboardInterrupt:
+        n_saved = len(partial.finished())
+        log(f"\ninterrupted: {n_saved} of {len(chunks)} chunks are saved in {partial.dir}; "
+            "rerun the same command to resume")
+        raise
+    finally:
+        if writer is not None:
+            writer.close()
+        partial.release()
+    result.wall_seconds = time.perf_counter() - t_start
+    log(f"wrote {output}: {design.size} points ({result.computed_points} computed) in "
+        f"{result.wall_seconds:.1f} s, {result.points_per_second:.4g} pt/s")
+    return result

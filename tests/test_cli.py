@@ -1,0 +1,135 @@
+"""The command line (sweep.cli), including a real kill -9 and resume."""
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from sweep import cli
+
+ROOT = Path(__file__).resolve().parents[1]
+
+CONFIG = """
+title = "cli test"
+[design]
+kind = "grid"
+alpha = 1.5
+beta = [1.25, 1.5]
+gamma = {start = 0.0, stop = 0.2, num = 10}
+gtilde = [0.0, 1.0, 10.0]
+[outputs]
+e = ["numeric"]
+fields = ["status", "n_steps"]
+[integrator]
+steps = 16
+[run]
+chunk_size = 16
+"""
+
+
+@pytest.fixture
+def cfg(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text(CONFIG)
+    return path
+
+
+def test_validate_accepts_and_describes(cfg, capsys):
+    assert cli.main(["validate", str(cfg)]) == 0
+    out = capsys.readouterr().out
+    assert "valid" in out and "60 points" in out and "e_numeric, n_steps, status" in out
+    assert "numerical integration: yes" in out
+
+
+def test_validate_rejects_with_the_key_and_value(cfg, capsys):
+    cfg.write_text(CONFIG.replace("beta = [1.25, 1.5]", "beta = [0.5, 1.5]"))
+    assert cli.main(["validate", str(cfg)]) == 1
+    err = capsys.readouterr().err
+    assert "design.beta" in err and "0.5" in err and ">= 1" in err
+
+
+def test_run_then_info(cfg, tmp_path, capsys):
+    out = tmp_path / "o.nc"
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == "" and out.exists()
+    assert cli.main(["info", str(out)]) == 0
+    text = capsys.readouterr().out
+    for part in ("alpha = 1, beta = 2, gamma = 10, gtilde = 3", "(60 points)", "e_numeric",
+                 "status", "ok: ", "integrator_steps = 16.0", "n_points = 60"):
+        assert part in text, part
+    # a mismatching rerun is refused with a clear message and exit status 1
+    cfg.write_text(CONFIG.replace("steps = 16", "steps = 17"))
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 1
+    assert "different configuration" in capsys.readouterr().err
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet", "--restart"]) == 0
+    with xr.open_dataset(out) as ds:
+        assert ds.attrs["integrator_steps"] == 17.0
+
+
+def test_default_output_name_and_progress_bar_only_on_a_terminal(cfg, tmp_path, capsys,
+                                                                 monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["run", str(cfg)]) == 0
+    err = capsys.readouterr().err
+    assert (tmp_path / "c.nc").exists()
+    assert "wrote c.nc" in err and "pt/s]" not in err        # stderr is not a terminal
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    assert cli.main(["run", str(cfg), "-o", "bar.nc"]) == 0
+    err = capsys.readouterr().err
+    assert "pt/s]" in err and "100%" in err and "<00:00" in err   # tqdm: rate and ETA
+    assert cli.main(["run", str(cfg), "-o", "quiet.nc", "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_info_on_a_missing_file(tmp_path, capsys):
+    assert cli.main(["info", str(tmp_path / "none.nc")]) == 1
+    assert "cannot read" in capsys.readouterr().err
+
+
+def test_kill_9_then_rerun_resumes_to_the_uninterrupted_result(tmp_path):
+    """A real crash: the process is SIGKILLed after a few chunks are saved."""
+    text = CONFIG.replace("num = 10", "num = 400").replace("chunk_size = 16",
+                                                           "chunk_size = 60")
+    cfg = tmp_path / "k.toml"
+    cfg.write_text(text)
+    out = tmp_path / "k.nc"
+    partial = tmp_path / "k.nc.partial"
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    cmd = [sys.executable, "-m", "sweep.cli", "run", str(cfg), "-o", str(out), "--quiet"]
+    # A slow kernel makes the race deterministic: each chunk sleeps in the subprocess.
+    slow = ("import sys, time, runpy; import sweep.runner as r; real = r.compute_chunk\n"
+            "def slow(*a):\n    time.sleep(0.3)\n    return real(*a)\n"
+            "r.compute_chunk = slow; sys.argv = ['sweep'] + sys.argv[1:]\n"
+            "from sweep.cli import main; sys.exit(main())\n")
+    proc = subprocess.Popen([sys.executable, "-c", slow] + cmd[3:], env=env, cwd=tmp_path)
+    try:
+        deadline = time.monotonic() + 120
+        while len(list(partial.glob("chunk_*.npz"))) < 3:
+            assert proc.poll() is None, "the run ended before it could be killed"
+            assert time.monotonic() < deadline
+            time.sleep(0.02)
+        os.kill(proc.pid, signal.SIGKILL)
+        assert proc.wait() == -signal.SIGKILL
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    saved = len(list(partial.glob("chunk_*.npz")))
+    assert 3 <= saved < 20 and not out.exists()
+    res = subprocess.run(cmd, env=env, cwd=tmp_path, capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    assert not partial.exists()
+    # The reference runs in a fresh process too, so that both use the same compiled code.
+    ref = tmp_path / "ref.nc"
+    res = subprocess.run(cmd[:6] + [str(ref), "--quiet"], env=env, cwd=tmp_path,
+                         capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    with xr.open_dataset(out) as a, xr.open_dataset(ref) as b:
+        for name in ("e_numeric", "status", "n_steps", "gamma"):
+            np.testing.assert_array_equal(a[name].values, b[name].values)
+        assert a.attrs["sweep_config"] == b.attrs["sweep_config"] == text

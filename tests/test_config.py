@@ -1,0 +1,227 @@
+"""Configuration parsing and validation (sweep.config)."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sweep import config
+from sweep.config import ConfigError
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+
+GRID = """
+title = "t"
+[design]
+kind = "grid"
+alpha = 1.5
+beta = [1.0, 1.5]
+gamma = {start = 0.0, stop = 0.1, num = 5}
+gtilde = {start = 1e-3, stop = 10.0, num = 3, spacing = "log"}
+[outputs]
+e = ["numeric", "ord1"]
+fields = ["status", "error_ord1"]
+"""
+
+DOE = """
+[design]
+kind = "doe"
+sampler = "sobol"
+n = 1000
+seed = 7
+alpha = {min = 1.0, max = 3.0}
+beta = 1.5
+gamma = {min = 1e-4, max = 1.0, scale = "log"}
+gtilde = {min = 0.0, max = 10.0}
+[outputs]
+e = ["ord1"]
+"""
+
+
+def test_grid_config_parses_axes_and_outputs():
+    cfg = config.loads(GRID)
+    assert cfg.design.kind == "grid"
+    assert cfg.design.shape == (1, 2, 5, 3)
+    assert cfg.design.axes[2] == tuple(np.linspace(0.0, 0.1, 5))
+    # log spacing hits both end points exactly
+    assert cfg.design.axes[3] == (1e-3, 0.1, 10.0)
+    assert cfg.outputs.methods == ("numeric", "ord1")
+    assert cfg.outputs.variables == ("e_numeric", "e_ord1", "status", "error_ord1")
+    assert cfg.outputs.needs_integration
+    assert cfg.chunk_size == config.DEFAULT_CHUNK_SIZE
+    assert cfg.integrator == config.IntegratorSettings()
+
+
+def test_doe_config_parses_bounds():
+    cfg = config.loads(DOE)
+    d = cfg.design
+    assert (d.kind, d.sampler, d.n, d.seed, d.scramble) == ("doe", "sobol", 1000, 7, True)
+    assert [b.scale for b in d.bounds] == ["linear", "fixed", "log", "linear"]
+    assert [b.name for b in d.sampled] == ["alpha", "gamma", "gtilde"]
+    assert d.bounds[1].lo == d.bounds[1].hi == 1.5
+
+
+def test_outputs_decide_what_runs():
+    def outputs(e, fields="[]"):
+        return config.loads(DOE.replace('e = ["ord1"]', f"e = {e}\nfields = {fields}")).outputs
+
+    only_ord1 = outputs('["ord1"]')
+    assert not only_ord1.needs_integration and only_ord1.approximations == ("ord1",)
+    # an error field needs the numerical CoR and its approximation, but stores neither
+    err = outputs("[]", '["error_sp"]')
+    assert err.needs_integration and err.approximations == ("sp",)
+    assert err.variables == ("error_sp",)
+    assert outputs("[]", '["n_steps"]').needs_integration
+    assert not outputs('["sp", "large_gtilde"]').needs_integration
+    every = outputs('"all"', '"all"')
+    assert every.methods == config.METHODS
+    assert every.fields == config.INTEGRATOR_FIELDS + tuple(
+        f"error_{m}" for m in config.APPROXIMATIONS)
+    # order in the file does not matter
+    assert outputs('["ord1", "numeric"]').methods == ("numeric", "ord1")
+
+
+def test_methods_match_the_api():
+    from sweep import api
+
+    assert config.METHODS == tuple(api.METHODS)
+
+
+def test_hash_ignores_formatting_but_not_values():
+    a = config.loads(GRID)
+    b = config.loads("# a comment\n" + GRID.replace("num = 5", "num   =   5"))
+    c = config.loads(GRID.replace("num = 5", "num = 6"))
+    assert a.sha256 == b.sha256 != c.sha256
+
+
+def test_integrator_options_and_run_tables():
+    cfg = config.loads(GRID + """
+[integrator]
+steps = 16
+rest_tol = 1e-9
+max_steps = 5000
+[options.ord2_approx]
+n = 11
+[run]
+chunk_size = 100
+""")
+    assert cfg.integrator.kwargs() == {"steps": 16, "rest_tol": 1e-9, "max_steps": 5000}
+    assert cfg.method_options("ord2_approx") == {"n": 11}
+    assert cfg.method_options("ord1") == {}
+    assert cfg.chunk_size == 100
+
+
+def _err(text):
+    with pytest.raises(ConfigError) as info:
+        config.loads(text, source="x.toml")
+    return str(info.value)
+
+
+@pytest.mark.parametrize("old, new, expected", [
+    ('title = "t"', 'title = "t"\ncolour = 1', ["colour", "unknown key"]),
+    ("alpha = 1.5", "alpha = 1.5\ngamme = 1", ["design.gamme", "did you mean 'gamma'"]),
+    ("num = 5", 'num = "five"', ["design.gamma.num", "integer", "'five'"]),
+    ("num = 5", "num = 5.0", ["design.gamma.num", "5.0"]),
+    ("num = 5", "num = true", ["design.gamma.num", "True"]),
+    ("num = 5", "num = 0", ["design.gamma.num", "empty range", "0"]),
+    ("alpha = 1.5", "alpha = 0.9", ["design.alpha", ">= 1", "0.9"]),
+    ("beta = [1.0, 1.5]", "beta = [1.0, 0.5]", ["design.beta", ">= 1", "0.5"]),
+    ("beta = [1.0, 1.5]", "beta = []", ["design.beta", "empty"]),
+    ("beta = [1.0, 1.5]", "beta = [1.5, 1.5]", ["design.beta", "repeat"]),
+    ("beta = [1.0, 1.5]", 'beta = "kk"', ["design.beta", "'kk'"]),
+    ("start = 0.0, stop = 0.1", "start = -0.1, stop = 0.1", ["design.gamma.start", ">= 0", "-0.1"]),
+    ("start = 0.0, stop = 0.1", "start = 0.1, stop = 0.1", ["design.gamma.stop", "> start"]),
+    ("start = 1e-3", "start = 0.0", ["design.gtilde.start", "log", "0.0"]),
+    ('spacing = "log"', 'spacing = "cubic"', ["design.gtilde.spacing", "'cubic'"]),
+    ('kind = "grid"', 'kind = "scene"', ["design.kind", "grid, doe", "'scene'"]),
+    ('e = ["numeric", "ord1"]', 'e = ["numeric", "ord3"]', ["outputs.e", "'ord3'"]),
+    ('e = ["numeric", "ord1"]', 'e = "numeric"', ["outputs.e", "'numeric'"]),
+    ('"status", "error_ord1"', '"status", "u_min"', ["outputs.fields", "'u_min'"]),
+    ('"status", "error_ord1"', '"error_numeric"', ["outputs.fields", "error_numeric"]),
+    ('"status", "error_ord1"', '"error_ord3"', ["outputs.fields", "error_ord3"]),
+    ('e = ["numeric", "ord1"]\nfields = ["status", "error_ord1"]', "e = []",
+     ["nothing to compute"]),
+    ("[outputs]", "[outputz]", ["outputz"]),
+    ('title = "t"', "title = 3", ["title", "string", "3"]),
+    ('title = "t"', "title = [", ["not valid TOML"]),
+])
+def test_grid_errors_name_key_and_value(old, new, expected):
+    assert old in GRID
+    msg = _err(GRID.replace(old, new, 1))
+    assert msg.startswith("x.toml: ")
+    for part in expected:
+        assert part in msg, (part, msg)
+
+
+@pytest.mark.parametrize("old, new, expected", [
+    ("alpha = {min = 1.0, max = 3.0}", "alpha = {min = 0.5, max = 3.0}",
+     ["design.alpha.min", ">= 1", "0.5"]),
+    ("beta = 1.5", "beta = 0.99", ["design.beta", ">= 1", "0.99"]),
+    ("alpha = {min = 1.0, max = 3.0}", "alpha = {min = 2.0, max = 2.0}",
+     ["design.alpha.max", "empty range", "2.0"]),
+    ("alpha = {min = 1.0, max = 3.0}", "alpha = {min = 1.0, max = 3.0, scal = 1}",
+     ["design.alpha.scal", "did you mean 'scale'"]),
+    ("alpha = {min = 1.0, max = 3.0}", "alpha = [1.0, 3.0]", ["design.alpha", "[1.0, 3.0]"]),
+    ("gtilde = {min = 0.0, max = 10.0}", 'gtilde = {min = 0.0, max = 10.0, scale = "log"}',
+     ["design.gtilde.min", "> 0", "log"]),
+    ("n = 1000", "n = 0", ["design.n", "empty", "0"]),
+    ("n = 1000", "n = 2000000000", ["design.n", "2**30"]),
+    ('sampler = "sobol"', 'sampler = "halton"', ["design.sampler", "'halton'"]),
+    ("seed = 7", "seed = -1", ["design.seed", "-1"]),
+    ("seed = 7", "seed = 7\nscramble = 1", ["design.scramble", "true or false"]),
+])
+def test_doe_errors_name_key_and_value(old, new, expected):
+    assert old in DOE
+    msg = _err(DOE.replace(old, new, 1))
+    for part in expected:
+        assert part in msg, (part, msg)
+
+
+def test_doe_needs_a_sampled_axis_and_lhs_size_limit():
+    fixed = (DOE.replace("alpha = {min = 1.0, max = 3.0}", "alpha = 2.0")
+             .replace('gamma = {min = 1e-4, max = 1.0, scale = "log"}', "gamma = 0.1")
+             .replace("gtilde = {min = 0.0, max = 10.0}", "gtilde = 1.0"))
+    assert "at least one sampled parameter" in _err(fixed)
+    assert "Latin hypercube" in _err(DOE.replace('"sobol"', '"lhs"').replace(
+        "n = 1000", "n = 100000000"))
+
+
+@pytest.mark.parametrize("extra, expected", [
+    ("[integrator]\nsteps = 1", ["integrator.steps", ">= 2", "1"]),
+    ("[integrator]\nrest_tol = 0.0", ["integrator.rest_tol", "> 0"]),
+    ("[integrator]\nmax_steps = 10.5", ["integrator.max_steps", "10.5"]),
+    ("[integrator]\nmax_step = 10", ["integrator.max_step", "did you mean 'max_steps'"]),
+    ("[options.ord2_approx]\nn = 20", ["options.ord2_approx.n", "odd", "20"]),
+    ("[options.ord2_approx]\nm = 21", ["options.ord2_approx.m", "unknown option"]),
+    ("[options.ord9]\nn = 21", ["options.ord9", "unknown method"]),
+    ("[run]\nchunk_size = 0", ["run.chunk_size", ">= 1", "0"]),
+])
+def test_other_table_errors(extra, expected):
+    msg = _err(GRID + extra)
+    for part in expected:
+        assert part in msg, (part, msg)
+
+
+def test_load_reports_missing_file(tmp_path):
+    with pytest.raises(ConfigError, match="cannot read"):
+        config.load(tmp_path / "nope.toml")
+
+
+def test_bundled_configs_are_valid_and_sized_as_documented():
+    paths = sorted(CONFIGS.glob("*.toml"))
+    names = {p.stem: config.load(p) for p in paths}
+    assert "default" in names
+    default = names["default"]
+    assert default.outputs.methods == config.METHODS
+    assert set(default.outputs.error_methods) == set(config.APPROXIMATIONS)
+    assert default.design.shape[:2] == (1, 1)        # Kuwabara-Kono: alpha = beta = 3/2
+    assert default.design.axes[0] == default.design.axes[1] == (1.5,)
+    sobol = names["sobol_1m"]
+    assert (sobol.design.sampler, sobol.design.n) == ("sobol", 1_000_000)
+    assert [(b.lo, b.hi, b.scale) for b in sobol.design.bounds] == [
+        (1.0, 3.0, "linear"), (1.0, 3.0, "linear"), (1e-4, 1.0, "log"), (0.0, 10.0, "linear")]
+    models = {"hertz": (1.5, 1.0), "tti": (1.5, 1.25), "kk": (1.5, 1.5), "shc": (1.5, 2.5)}
+    for model, (a, b) in models.items():
+        cfg = names[f"report_{model}"]
+        assert cfg.design.axes[:2] == ((a,), (b,))
+        assert cfg.design.axes[2] == tuple(np.linspace(0.0, 0.1, 1000))
+        assert cfg.design.axes[3] == (0.0, 0.05, 1.0, 10.0)

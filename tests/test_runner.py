@@ -1,0 +1,241 @@
+"""Chunked execution, only-requested outputs, resume and determinism (sweep.runner)."""
+import numba
+import numpy as np
+import pytest
+import xarray as xr
+
+from sweep import api, config, design, runner, store
+
+GRID = """
+title = "runner test"
+[design]
+kind = "grid"
+alpha = 1.5
+beta = [1.0, 1.5]
+gamma = {start = 0.0, stop = 0.2, num = 9}
+gtilde = [0.0, 0.05, 1.0, 10.0]
+[outputs]
+e = ["numeric", "ord1", "sp"]
+fields = "all"
+[integrator]
+steps = 16
+[run]
+chunk_size = 10
+"""
+
+DOE = """
+[design]
+kind = "doe"
+sampler = "sobol"
+n = 100
+seed = 11
+alpha = {min = 1.0, max = 3.0}
+beta = {min = 1.0, max = 3.0}
+gamma = {min = 1e-3, max = 0.5, scale = "log"}
+gtilde = {min = 0.0, max = 10.0}
+[outputs]
+e = ["ord1"]
+fields = ["status", "error_ord1"]
+[integrator]
+steps = 16
+[run]
+chunk_size = 16
+"""
+
+#: Global attributes that legitimately differ between two runs of the same configuration.
+VOLATILE = ("run_time_s", "kernel_time_s", "points_per_second", "date_created", "history")
+
+
+def run(text, path, **kw):
+    kw.setdefault("quiet", True)
+    return runner.run(config.loads(text, source="test.toml"), path, **kw)
+
+
+def opened(path):
+    with xr.open_dataset(path) as ds:
+        ds = ds.load()
+    for key in VOLATILE:
+        ds.attrs.pop(key)
+    return ds
+
+
+def expected(text):
+    """The outputs computed directly with the api on the design's points."""
+    cfg = config.loads(text)
+    d = design.build(cfg.design)
+    a, b, g, gt = d.points(0, d.size)
+    r = api.integrate(a, b, g, gt, **cfg.integrator.kwargs())
+    out = {"e_numeric": r.e, "sticks": r.sticks, "t_f": r.t_f, "u_max": r.u_max,
+           "n_steps": r.n_steps, "status": r.status}
+    for m in cfg.outputs.approximations:
+        out[f"e_{m}"] = api.cor(a, b, g, gt, method=m, **cfg.method_options(m))
+        out[f"error_{m}"] = out[f"e_{m}"] - r.e
+    return d, (a, b, g, gt), {k: out[k] for k in cfg.outputs.variables}
+
+
+def test_grid_run_stores_exactly_what_the_api_computes(tmp_path):
+    res = run(GRID, tmp_path / "g.nc")
+    assert (res.n_points, res.computed_points, res.chunks) == (72, 72, 8)
+    assert not (tmp_path / "g.nc.partial").exists()
+    d, _, want = expected(GRID)
+    ds = opened(tmp_path / "g.nc")
+    assert tuple(ds.data_vars) == config.loads(GRID).outputs.variables
+    assert dict(ds.sizes) == {"alpha": 1, "beta": 2, "gamma": 9, "gtilde": 4}
+    for name, axis in d.axes.items():
+        np.testing.assert_array_equal(ds[name].values, axis)
+    for name, values in want.items():
+        assert ds[name].dims == ("alpha", "beta", "gamma", "gtilde")
+        assert ds[name].dtype == store.variable_spec(name)[0]
+        np.testing.assert_array_equal(ds[name].values.reshape(-1), values, err_msg=name)
+    assert np.isnan(ds.e_sp.sel(beta=1.0)).all()          # sp is defined for KK only
+    assert np.isfinite(ds.e_sp.sel(beta=1.5)).all()
+    a = ds.attrs
+    assert a["Conventions"] == "CF-1.10"
+    assert a["sweep_config"] == GRID and a["sweep_config_sha256"] == config.loads(GRID).sha256
+    assert a["numba_version"] == numba.__version__ and a["numpy_version"] == np.__version__
+    assert a["integrator_steps"] == 16.0 and a["integrator_max_steps"] == api.DEFAULT_MAX_STEPS
+    assert a["integrator_rest_tol"] == 1e-8 and a["n_points"] == 72
+    with xr.open_dataset(tmp_path / "g.nc") as raw:
+        assert raw.attrs["run_time_s"] > 0 and raw.attrs["points_per_second"] > 0
+
+
+def test_doe_run_has_a_point_dimension_with_parameter_coordinates(tmp_path):
+    run(DOE, tmp_path / "d.nc")
+    _, points, want = expected(DOE)
+    ds = opened(tmp_path / "d.nc")
+    assert dict(ds.sizes) == {"point": 100}
+    assert set(ds.coords) == {"alpha", "beta", "gamma", "gtilde"}
+    for name, values in zip(("alpha", "beta", "gamma", "gtilde"), points):
+        np.testing.assert_array_equal(ds[name].values, values)
+    assert set(ds.data_vars) == {"e_ord1", "status", "error_ord1"}
+    for name, values in want.items():
+        np.testing.assert_array_equal(ds[name].values, values, err_msg=name)
+
+
+def test_approximations_alone_run_no_integration(tmp_path, monkeypatch):
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the numerical integration ran although nothing needs it")
+
+    monkeypatch.setattr(api, "integrate", forbidden)
+    text = DOE.replace('fields = ["status", "error_ord1"]', "").replace(
+        'e = ["ord1"]', 'e = ["ord1", "large_gtilde"]')
+    run(text, tmp_path / "a.nc")
+    ds = opened(tmp_path / "a.nc")
+    assert set(ds.data_vars) == {"e_ord1", "e_large_gtilde"}   # nothing else allocated
+    assert ds.attrs["integrator"].startswith("not run")
+    assert "integrator_steps" not in ds.attrs
+
+
+def test_error_fields_share_one_integration(tmp_path, monkeypatch):
+    calls = {"integrate": 0, "cor": []}
+    real_integrate, real_cor = api.integrate, api.cor
+
+    def integrate(*args, **kwargs):
+        calls["integrate"] += 1
+        return real_integrate(*args, **kwargs)
+
+    def cor(*args, method="numeric", **kwargs):
+        calls["cor"].append(method)
+        return real_cor(*args, method=method, **kwargs)
+
+    monkeypatch.setattr(api, "integrate", integrate)
+    monkeypatch.setattr(api, "cor", cor)
+    text = GRID.replace('e = ["numeric", "ord1", "sp"]', 'e = ["numeric"]').replace(
+        'fields = "all"', 'fields = ["error_ord1", "error_sp"]')
+    res = run(text, tmp_path / "e.nc")
+    assert calls["integrate"] == res.chunks == 8
+    assert sorted(set(calls["cor"])) == ["ord1", "sp"] and len(calls["cor"]) == 16
+    ds = opened(tmp_path / "e.nc")
+    assert set(ds.data_vars) == {"e_numeric", "error_ord1", "error_sp"}
+
+
+def test_results_do_not_depend_on_chunk_size_or_thread_count(tmp_path):
+    run(GRID, tmp_path / "ref.nc")
+    ref = opened(tmp_path / "ref.nc")
+    run(GRID, tmp_path / "c7.nc", chunk_size=7)
+    run(GRID, tmp_path / "c72.nc", chunk_size=1000)
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        run(GRID, tmp_path / "t1.nc", chunk_size=72)
+    finally:
+        numba.set_num_threads(threads)
+    for name in ("c7.nc", "c72.nc", "t1.nc"):
+        other = opened(tmp_path / name)
+        other.attrs["chunk_size"] = ref.attrs["chunk_size"]
+        xr.testing.assert_identical(ref, other)
+
+
+def interrupt_after(monkeypatch, n_chunks):
+    real = runner.compute_chunk
+    count = [0]
+
+    def compute(*args):
+        if count[0] == n_chunks:
+            raise KeyboardInterrupt
+        count[0] += 1
+        return real(*args)
+
+    monkeypatch.setattr(runner, "compute_chunk", compute)
+
+
+@pytest.mark.parametrize("text", [GRID, DOE], ids=["grid", "doe"])
+def test_resume_after_interrupt_equals_an_uninterrupted_run(tmp_path, monkeypatch, text):
+    run(text, tmp_path / "ref.nc")
+    out = tmp_path / "out.nc"
+    with monkeypatch.context() as m:
+        interrupt_after(m, 3)
+        with pytest.raises(KeyboardInterrupt):
+            run(text, out)
+    assert not out.exists()                     # no half-written file at the output path
+    partial = tmp_path / "out.nc.partial"
+    assert len(list(partial.glob("chunk_*.npz"))) == 3
+    res = run(text, out)
+    chunk = config.loads(text).chunk_size
+    assert res.resumed_chunks == 3 and res.computed_points == res.n_points - 3 * chunk
+    assert not partial.exists()
+    xr.testing.assert_identical(opened(tmp_path / "ref.nc"), opened(out))
+
+
+def test_resume_with_another_configuration_is_refused(tmp_path, monkeypatch):
+    out = tmp_path / "out.nc"
+    with monkeypatch.context() as m:
+        interrupt_after(m, 2)
+        with pytest.raises(KeyboardInterrupt):
+            run(GRID, out)
+    other = GRID.replace("num = 9", "num = 10")
+    with pytest.raises(store.ResumeError, match="different configuration"):
+        run(other, out)
+    with monkeypatch.context() as m:   # same configuration, edited package
+        m.setattr(runner, "source_sha256", lambda: "edited")
+        with pytest.raises(store.ResumeError, match="different sweep source code"):
+            run(GRID, out)
+    res = run(other, out, restart=True)
+    assert res.resumed_chunks == 0 and res.computed_points == 80
+    assert opened(out).sizes["gamma"] == 10
+
+
+def test_existing_output_is_kept_or_refused(tmp_path):
+    out = tmp_path / "out.nc"
+    run(GRID, out)
+    before = out.stat().st_mtime_ns
+    assert run(GRID, out).up_to_date and out.stat().st_mtime_ns == before
+    other = GRID.replace("steps = 16", "steps = 20")
+    with pytest.raises(store.ResumeError, match="different configuration"):
+        run(other, out)
+    assert run(other, out, restart=True).computed_points == 72
+    assert opened(out).attrs["integrator_steps"] == 20.0
+    junk = tmp_path / "junk.nc"
+    junk.write_text("not netCDF")
+    with pytest.raises(store.ResumeError, match="not a sweep output"):
+        run(GRID, junk)
+
+
+def test_dask_cluster_gives_the_local_results(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    run(DOE, tmp_path / "local.nc")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        res = run(DOE, tmp_path / "dask.nc", scheduler=cluster.scheduler_address)
+    assert res.computed_points == 100
+    xr.testing.assert_identical(opened(tmp_path / "local.nc"), opened(tmp_path / "dask.nc"))

@@ -1,0 +1,204 @@
+"""netCDF output, partial state for resuming, atomic commit (sweep.store)."""
+import json
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from sweep import store
+from sweep.model import Status
+
+VARIABLES = ("e_numeric", "e_ord1", "sticks", "t_f", "u_max", "n_steps", "status",
+             "error_ord1")
+
+
+def fake_results(n, rng):
+    e = rng.random(n)
+    e[::7] = np.nan                                   # invalid points keep their NaN
+    return {
+        "e_numeric": e,
+        "e_ord1": rng.random(n),
+        "sticks": rng.random(n) < 0.3,
+        "t_f": rng.random(n) * 5,
+        "u_max": rng.random(n),
+        "n_steps": rng.integers(0, 10 ** 12, n),       # beyond int32
+        "status": rng.integers(0, 5, n).astype(np.int8),
+        "error_ord1": rng.standard_normal(n) * 1e-17,  # tiny values survive exactly
+    }
+
+
+@pytest.mark.parametrize("shape", [(5,), (3, 4), (2, 3, 4), (2, 1, 3, 5), (4, 1, 1, 1)])
+def test_flat_blocks_cover_a_flat_range_exactly(shape):
+    size = int(np.prod(shape))
+    flat = np.arange(size).reshape(shape)
+    for start in range(size):
+        for stop in range(start, size + 1):
+            seen = []
+            for sl, lo, hi in store.flat_blocks(shape, start, stop):
+                block = flat[sl].reshape(-1)
+                assert list(block) == list(range(lo, hi))
+                seen.extend(block)
+            assert seen == list(range(start, stop))
+
+
+def write_dataset(path, layout, data, chunks, points=None, attrs=None):
+    w = store.NetCDFWriter(path, layout, VARIABLES, attrs or {"Conventions": "CF-1.10"})
+    for s, e in chunks:
+        pts = None if points is None else {k: v[s:e] for k, v in points.items()}
+        w.write(s, e, {k: v[s:e] for k, v in data.items()}, pts)
+    w.close()
+
+
+def check_attrs(ds):
+    for name in list(ds.data_vars) + list(ds.coords):
+        attrs = ds[name].attrs
+        assert attrs["units"] == "1", name
+        assert attrs["long_name"], name
+        assert "eq" in attrs["description"] or "Algorithm" in attrs["description"], name
+
+
+def test_grid_dataset_round_trips_exactly(tmp_path):
+    rng = np.random.default_rng(0)
+    axes = {"alpha": np.array([1.5]), "beta": np.array([1.0, 2.5]),
+            "gamma": np.linspace(0, 0.1, 7), "gtilde": np.array([0.0, 0.05, 1.0, 10.0])}
+    layout = store.Layout(dims=tuple(axes), shape=(1, 2, 7, 4), axes=axes)
+    data = fake_results(layout.size, rng)
+    path = tmp_path / "grid.nc"
+    # chunks written out of order and not aligned with rows
+    write_dataset(path, layout, data, [(30, 56), (0, 13), (13, 30)])
+    with xr.open_dataset(path) as ds:
+        assert dict(ds.sizes) == {"alpha": 1, "beta": 2, "gamma": 7, "gtilde": 4}
+        for name, values in axes.items():
+            np.testing.assert_array_equal(ds[name].values, values)
+        for name, values in data.items():
+            assert ds[name].dims == layout.dims
+            assert ds[name].dtype == values.dtype, name
+            np.testing.assert_array_equal(ds[name].values.reshape(-1), values)
+        assert ds.status.attrs["flag_meanings"].split() == [s.name.lower() for s in Status]
+        np.testing.assert_array_equal(ds.status.attrs["flag_values"], [0, 1, 2, 3, 4])
+        check_attrs(ds)
+        assert ds.attrs["Conventions"] == "CF-1.10"
+        enc = ds.e_numeric.encoding
+        assert enc["zlib"] and enc["shuffle"]
+        ds.load().to_netcdf(tmp_path / "again.nc")
+    with xr.open_dataset(path) as a, xr.open_dataset(tmp_path / "again.nc") as b:
+        xr.testing.assert_identical(a, b)
+
+
+def test_point_dataset_has_parameters_as_coordinates(tmp_path):
+    rng = np.random.default_rng(1)
+    n = 1000
+    layout = store.Layout(dims=("point",), shape=(n,), axes={},
+                          point_coords=("alpha", "beta", "gamma", "gtilde"))
+    data = fake_results(n, rng)
+    points = {k: rng.random(n) + 1 for k in layout.point_coords}
+    path = tmp_path / "doe.nc"
+    write_dataset(path, layout, data, [(0, 300), (300, 1000)], points)
+    with xr.open_dataset(path) as ds:
+        assert dict(ds.sizes) == {"point": n}
+        assert set(ds.coords) == {"alpha", "beta", "gamma", "gtilde"}
+        for k, v in points.items():
+            assert ds[k].dims == ("point",)
+            np.testing.assert_array_equal(ds[k].values, v)
+        for k, v in data.items():
+            np.testing.assert_array_equal(ds[k].values, v)
+        check_attrs(ds)
+    w = store.NetCDFWriter(tmp_path / "x.nc", layout, VARIABLES)
+    with pytest.raises(ValueError, match="coordinates"):
+        w.write(0, 10, {k: v[:10] for k, v in data.items()})
+    with pytest.raises(ValueError, match="expected 10"):
+        w.write(0, 10, {k: v[:9] for k, v in data.items()}, points)
+    w.close()
+
+
+def test_unknown_variable_is_refused():
+    with pytest.raises(KeyError):
+        store.variable_spec("e_ord9")
+
+
+def manifest(**over):
+    m = {"config_sha256": "abc", "sweep_version": "0.1.0", "output": "out.nc",
+         "n_points": 10, "chunk_size": 4, "variables": ["e_ord1", "status"]}
+    m.update(over)
+    return m
+
+
+def test_partial_store_saves_loads_and_resumes(tmp_path):
+    out = tmp_path / "out.nc"
+    p = store.PartialStore(out, manifest())
+    assert p.open() == set()
+    assert p.dir == tmp_path / "out.nc.partial"
+    arrays = {"e_ord1": np.arange(4.0), "status": np.zeros(4, np.int8)}
+    p.save_chunk(1, 4, 8, arrays, (2.0, 1.5))
+    data, times = p.load_chunk(1, 4, 8)
+    np.testing.assert_array_equal(data["e_ord1"], arrays["e_ord1"])
+    assert data["status"].dtype == np.int8 and times == (2.0, 1.5)
+    assert p.load_chunk(1, 0, 4) is None                 # wrong bounds
+    assert p.load_chunk(2, 8, 10) is None                # missing
+    (p.dir / "chunk_0000002.npz").write_bytes(b"garbage")  # damaged: recomputed, not trusted
+    assert p.load_chunk(2, 8, 10) is None
+    p.discard_chunk(2)
+    p.release()
+    # leftovers of a crash are cleaned, saved chunks found again
+    (p.dir / "chunk_0000003.npz.tmp99").write_bytes(b"half")
+    p.assembling.write_bytes(b"half")
+    q = store.PartialStore(out, manifest())
+    assert q.open() == {1}
+    assert not p.assembling.exists() and not list(p.dir.glob("*.tmp*"))
+    # a second process cannot write the same output
+    with pytest.raises(store.ResumeError, match="another sweep process"):
+        store.PartialStore(out, manifest()).open()
+    q.remove()
+    assert not p.dir.exists()
+
+
+@pytest.mark.parametrize("key, value, what", [
+    ("config_sha256", "def", "different configuration"),
+    ("sweep_version", "9.9", "different sweep version"),
+    ("sweep_source_sha256", "edited", "different sweep source code"),
+    ("chunk_size", 5, "different chunk size"),
+    ("variables", ["e_ord1"], "different stored variables"),
+])
+def test_resume_with_a_mismatch_is_refused(tmp_path, key, value, what):
+    out = tmp_path / "out.nc"
+    p = store.PartialStore(out, manifest())
+    p.open()
+    p.release()
+    with pytest.raises(store.ResumeError) as info:
+        store.PartialStore(out, manifest(**{key: value})).open()
+    msg = str(info.value)
+    assert what in msg and "--restart" in msg and key in msg
+    # --restart discards the old state
+    r = store.PartialStore(out, manifest(**{key: value}))
+    assert r.open(restart=True) == set()
+    assert json.loads((r.dir / "manifest.json").read_text())[key] == value
+    r.release()
+
+
+def test_commit_replaces_atomically(tmp_path):
+    final = tmp_path / "out.nc"
+    final.write_text("old")
+    tmp = tmp_path / "out.nc.partial"
+    tmp.mkdir()
+    new = tmp / "assembling.nc"
+    new.write_text("new")
+    store.commit(new, final)
+    assert final.read_text() == "new" and not new.exists()
+
+
+def test_summarize_reports_dims_variables_and_statistics(tmp_path):
+    axes = {"alpha": np.array([1.5]), "beta": np.array([1.5]),
+            "gamma": np.array([0.0, 0.1]), "gtilde": np.array([0.0, 1.0, 10.0])}
+    layout = store.Layout(dims=tuple(axes), shape=(1, 1, 2, 3), axes=axes)
+    data = fake_results(6, np.random.default_rng(2))
+    data["status"][:] = [0, 0, 1, 4, 0, 3]
+    data["e_ord1"][:] = [0.5, 1.0, 0.25, np.nan, 0.75, 0.5]
+    path = tmp_path / "s.nc"
+    write_dataset(path, layout, data, [(0, 6)],
+                  attrs={"title": "demo", "integrator_steps": 64.0, "n_points": 6})
+    text = store.summarize(path)
+    assert "demo" in text and "gamma = 2" in text and "(6 points)" in text
+    assert "ok: 3, stuck: 1, at_rest: 0, budget_exhausted: 1, invalid: 1" in text
+    assert "min 0.25, mean 0.6, max 1, NaN 1 of 6" in text
+    assert "integrator_steps = 64.0" in text
+    assert "gtilde   [0, 10]" in text
