@@ -1,11 +1,44 @@
-"""Jitted special functions: Beta function, roots and quadrature used by the kernels."""
+"""Jitted special functions behind the report's closed forms (Sections 4-5, Appendices A-C).
+
+Scalar ``numba`` functions, called from the kernels of :mod:`sweep.approx` (and from Python
+for tests). All quantities are dimensionless ("1").
+
+- :func:`beta_fn` -- Euler's Beta function ``B(x, y)`` (Def. 1);
+- :func:`umax_undamped` -- maximum compression ``u_M(g~)``, root of (13);
+- :func:`gtilde_of_theta`, :func:`theta_of_gtilde` -- the map (43) and its inverse;
+- :func:`jm_quadrature`, :func:`iq_quadrature` -- ``J, M`` of (47) and ``I, Q`` of Prop. 2
+  by Gauss quadrature, to about 1e-15 relative;
+- :func:`jm_chebyshev`, :func:`iq_chebyshev` -- the report's Chebyshev-Beta approximation
+  (Prop. 3-4, eqs. 48-53);
+- :func:`iq_at_zero` (39), (40), :func:`first_order_constants` (22),
+  :func:`large_gtilde_constants` (23).
+
+Notation (report, Sec. 4.4): with ``u = u_M x`` and ``u_M^(a+1)/(a+1) = 1/(2 theta)``, the
+bracket of Prop. 2 is ``1 + 2(g~ u - u^(a+1)/(a+1)) = P(x)/theta`` with::
+
+    P(x) = theta + (1 - theta) x - x^(a+1) = theta (1 - x) + x (1 - x^a),
+
+so that ``I = K J`` and ``Q = L M`` with ``K = 2 u_M^b / sqrt(theta)``,
+``L = sqrt(theta) u_M^b`` and ``J = int_0^1 P^(1/2) x^(b-1) dx``,
+``M = int_0^1 P^(-1/2) x^(b-1) dx``. Section 4.1 of the report defines ``I`` without the factor
+2; this module uses Prop. 2's definition throughout (SPEC section 6).
+"""
 from __future__ import annotations
 
 import math
 
 import numba as nb
+import numpy as np
 
-__all__ = ["umax_undamped"]
+__all__ = ["umax_undamped", "beta_fn", "gtilde_of_theta", "theta_of_gtilde", "jm_quadrature",
+           "iq_quadrature", "jm_chebyshev", "iq_chebyshev", "chebyshev_tables", "iq_at_zero",
+           "first_order_constants", "large_gtilde_constants", "THETA_MIN"]
+
+_LGAMMA_HALF = 0.5 * math.log(math.pi)
+
+#: Smallest theta the inverse map returns; larger g~ (beyond ~1e149 at alpha = 1) are out of
+#: range and give NaN.
+THETA_MIN = 1e-300
 
 
 @nb.njit(cache=False, inline="always")
@@ -31,3 +64,424 @@ def umax_undamped(alpha, gtilde):
             break
         u = u_new
     return u
+
+
+@nb.njit(cache=True)
+def beta_fn(x, y):
+    """Euler's Beta function ``B(x, y) = Gamma(x) Gamma(y) / Gamma(x + y)`` for x, y > 0.
+
+    Through ``math.lgamma``: the relative error is a few times ``eps * |lgamma|``, about
+    1e-14 for the arguments of (22)-(53) (x, y up to ~40); tested against scipy.
+    """
+    return math.exp(math.lgamma(x) + math.lgamma(y) - math.lgamma(x + y))
+
+
+@nb.njit(cache=True)
+def _beta_half(x):
+    """``B(x, 1/2) = sqrt(pi) Gamma(x) / Gamma(x + 1/2)``, the Beta function of (53), x > 0.
+
+    The recurrence (53) takes differences of up to 20th order of these values and amplifies
+    their rounding errors ~1e6-fold, so the ratio is reduced to an argument in (1, 2] by
+    ``Gamma(x + 1) = x Gamma(x)`` (exact shifts, one rounding per factor) before lgamma,
+    whose absolute error then is ~1e-17 instead of ~eps |lgamma(x)|.
+    """
+    num = 1.0
+    den = 1.0
+    while x > 2.0:
+        x -= 1.0
+        num *= x
+        den *= x + 0.5
+    return num / den * math.exp(math.lgamma(x) + _LGAMMA_HALF - math.lgamma(x + 0.5))
+
+
+# ----------------------------------------------------------------------------------------
+# The map (43) between g~ and theta
+# ----------------------------------------------------------------------------------------
+
+@nb.njit(cache=True)
+def gtilde_of_theta(alpha, theta):
+    """Load ``g~(theta) = ((a+1)/(2 theta))^(-1/(a+1)) (1/(2 theta) - 1/2)``, eq. (43).
+
+    Decreasing from ``g~(0+) = inf`` to ``g~(1) = 0``; ``theta = 1/(2 u_M^(a+1)/(a+1))``.
+    """
+    ap1 = alpha + 1.0
+    return (ap1 / (2.0 * theta)) ** (-1.0 / ap1) * (1.0 - theta) / (2.0 * theta)
+
+
+@nb.njit(cache=True)
+def theta_of_gtilde(alpha, gtilde):
+    """Inverse of (43): the ``theta`` in (0, 1] with ``g~(theta) = g~`` (``theta(0) = 1``).
+
+    Safeguarded Newton iteration on ``log g~`` as a function of ``log theta`` (concave and
+    decreasing, so Newton converges monotonically once on the right of the root), inside a
+    bracket that every step shrinks; a step leaving the bracket is replaced by a geometric
+    bisection. The residual ``log(g~(theta)/g~)`` is formed from the ratio, not from the
+    difference of two logarithms, so theta comes out to a few ulps for g~ up to 1e100
+    (``theta >= THETA_MIN``; beyond, NaN). NaN for negative or non-finite g~.
+    """
+    if not (gtilde >= 0.0) or not math.isfinite(gtilde) or not (alpha >= 1.0):
+        return math.nan
+    if gtilde == 0.0:
+        return 1.0
+    ap1 = alpha + 1.0
+    c1 = (0.5 * ap1) ** (-1.0 / ap1)          # g~ ~ c1 (1 - theta)/2 near theta = 1
+    expo = ap1 / alpha
+    # Bracket: g~(theta_hi) <= g~ <= g~(theta_lo). For theta <= 1/2, (1 - theta) >= 1/2
+    # gives g~(theta) >= c1 theta^(-a/(a+1)) / 4.
+    lo = min(0.5, (c1 / (4.0 * gtilde)) ** expo)
+    if lo < THETA_MIN:
+        return math.nan
+    hi = 1.0
+    # Initial guess exact to first order at both ends: 1 - 2g~/c1 and (c1/(2g~))^((a+1)/a).
+    z = 2.0 * gtilde / c1
+    th = 1.0 / (1.0 + z + z ** expo)
+    if th == 1.0:       # 1 - theta ~ z below half an ulp of 1: theta rounds to 1
+        return 1.0
+    for _ in range(200):
+        g = gtilde_of_theta(alpha, th)
+        r = math.log(g / gtilde)                # > 0: theta too small
+        if r == 0.0:
+            return th
+        if r > 0.0:
+            lo = th
+        else:
+            hi = th
+        slope = -(alpha / ap1 + th / (1.0 - th))  # d log g~ / d log theta
+        step = -r / slope
+        th_new = th * math.exp(step)
+        if abs(step) < 4e-16:       # quadratic convergence: the remaining error is ~step^2
+            return th_new
+        if not (lo < th_new < hi):
+            th_new = math.sqrt(lo * hi)
+        if th_new == th:
+            return th
+        th = th_new
+    return th
+
+
+# ----------------------------------------------------------------------------------------
+# I(g~), Q(g~) by quadrature
+# ----------------------------------------------------------------------------------------
+
+def _gauss_legendre_01(n):
+    x, w = np.polynomial.legendre.leggauss(n)
+    return np.ascontiguousarray(0.5 * (x + 1.0)), np.ascontiguousarray(0.5 * w)
+
+
+# Split point of [0, 1]; panel length of the logarithmic panels on [h0, SPLIT]; h0 / min(theta,
+# SPLIT); node counts. Chosen by measuring against 40-digit mpmath quadrature over alpha,
+# beta in [1, 4], theta in [1e-13, 1]: worst relative error 2.2e-15 (16 nodes per panel; 14
+# gave 1e-13, 20 no better). tests/test_special.py re-checks against mpmath and QUADPACK.
+_SPLIT = 0.5
+_PANEL = 2.5
+_TAIL = 1e-3
+_TAIL_TERMS = 8
+_XL, _WL = _gauss_legendre_01(16)
+_XR, _WR = _gauss_legendre_01(14)
+
+
+@nb.njit(cache=True)
+def _tail_series(p, alpha, beta, theta, h0):
+    """``int_0^h0 x^(b-1) P(x)^p dx`` for ``h0 <= 1e-3 min(theta, 1/2)``.
+
+    ``P^p = (theta + (1-theta) x)^p (1 - x^(a+1)/(theta + (1-theta)x))^p``: the binomial
+    series in ``z = (1-theta) h0/theta <= 1e-3`` integrated term by term, plus the first-order
+    term in ``x^(a+1)/theta <= 1e-6`` (second order is below 1e-12 of this small tail).
+    """
+    z = (1.0 - theta) * h0 / theta
+    eps = math.exp((alpha + 1.0) * math.log(h0)) / theta
+    s1 = 0.0
+    s2 = 0.0
+    b1 = 1.0    # binom(p, k)
+    b2 = 1.0    # binom(p - 1, k)
+    zk = 1.0
+    for k in range(_TAIL_TERMS):
+        s1 += b1 * zk / (beta + k)
+        s2 += b2 * zk / (beta + alpha + 1.0 + k)
+        b1 *= (p - k) / (k + 1.0)
+        b2 *= (p - 1.0 - k) / (k + 1.0)
+        zk *= z
+    return theta ** p * h0 ** beta * (s1 - p * eps * s2)
+
+
+@nb.njit(cache=True)
+def jm_quadrature(alpha, beta, theta):
+    """``J(theta)`` and ``M(theta)`` of (47) by composite Gauss-Legendre quadrature.
+
+    The integrands ``P^(+-1/2) x^(b-1)`` have three awkward spots, each removed by a change of
+    variable so that plain Gauss-Legendre nodes see analytic functions:
+
+    - ``x = 1``: ``P`` has a simple zero (the bracket's zero at ``u_M``). On [1/2, 1] put
+      ``x = 1 - s^2/2``: ``P = (1 - x) R(x)`` with ``R = theta + x (1 - x^a)/(1 - x) > 0``
+      analytic there, and the end-point weights ``(1-x)^(1/2) dx`` and ``(1-x)^(-1/2) dx``
+      become ``s^2 ds`` and ``ds`` (times constants): the weight is absorbed exactly, as a
+      Gauss-Jacobi rule would do. ``R`` is evaluated from ``d = 1 - x`` with
+      ``log1p``/``expm1``, free of cancellation.
+    - ``x = 0``: ``x^(b-1)`` and ``x^(a+1)`` are not analytic for non-integer exponents, and
+      for large g~ (small theta) ``P = theta + x + ...`` has a boundary layer of width theta.
+      On [h0, 1/2], ``x = e^s`` makes every power of x entire in s; the only singularity
+      left, ``P = 0`` near ``x = -theta``, sits at distance pi from the real s axis, and
+      panels of length 2.5 in s with 16 nodes reach ~1e-16.
+    - [0, h0] with ``h0 = 1e-3 min(theta, 1/2)``: a convergent series (``_tail_series``).
+
+    Cost: 62 nodes at theta >= 1/2, growing like ``6.4 log(1/theta)`` (~190 at 1e-9).
+
+    Parameters
+    ----------
+    alpha, beta : float
+        Exponents [1], >= 1.
+    theta : float
+        Parameter of (43) [1], in (0, 1].
+
+    Returns
+    -------
+    J, M : float
+        The integrals (47) [1].
+    """
+    c = _SPLIT
+    one_c = 1.0 - c
+    # [c, 1]: x = 1 - (1 - c) s^2, s in [0, 1].
+    jr = 0.0
+    mr = 0.0
+    for i in range(_XR.size):
+        s = _XR[i]
+        d = one_c * s * s
+        l1 = math.log1p(-d)
+        q = -math.expm1(alpha * l1) / d          # (1 - x^a)/(1 - x)
+        r = theta + (1.0 - d) * q
+        xb1 = math.exp((beta - 1.0) * l1)
+        sr = math.sqrt(r)
+        mr += _WR[i] * xb1 / sr
+        jr += _WR[i] * s * s * sr * xb1
+    mr *= 2.0 * math.sqrt(one_c)
+    jr *= 2.0 * one_c * math.sqrt(one_c)
+    # [h0, c]: x = e^s, dx = x ds, in m equal panels.
+    h0 = _TAIL * min(theta, c)
+    lo = math.log(h0)
+    span = math.log(c) - lo
+    m = int(math.ceil(span / _PANEL))
+    width = span / m
+    jl = 0.0
+    ml = 0.0
+    for p in range(m):
+        s0 = lo + p * width
+        jp = 0.0
+        mp = 0.0
+        for i in range(_XL.size):
+            s = s0 + width * _XL[i]
+            x = math.exp(s)
+            pv = theta * (1.0 - x) + x * (1.0 - math.exp(alpha * s))   # no cancellation
+            xb = math.exp(beta * s)
+            sp = math.sqrt(pv)
+            mp += _WL[i] * xb / sp
+            jp += _WL[i] * xb * sp
+        jl += jp
+        ml += mp
+    jl *= width
+    ml *= width
+    jt = _tail_series(0.5, alpha, beta, theta, h0)
+    mt = _tail_series(-0.5, alpha, beta, theta, h0)
+    return jr + jl + jt, mr + ml + mt
+
+
+@nb.njit(cache=True)
+def _k_l(alpha, beta, theta):
+    """``K(theta)`` and ``L(theta)`` of (47)."""
+    umb = (0.5 * (alpha + 1.0) / theta) ** (beta / (alpha + 1.0))   # u_M^b
+    st = math.sqrt(theta)
+    return 2.0 * umb / st, umb * st
+
+
+@nb.njit(cache=True)
+def iq_quadrature(alpha, beta, gtilde):
+    """``I(g~)`` and ``Q(g~)`` of Prop. 2 by quadrature (:func:`jm_quadrature`)::
+
+        I = 2 int_0^{u_M} [1 + 2(g~ u - u^(a+1)/(a+1))]^(+1/2) u^(b-1) du
+        Q =   int_0^{u_M} [1 + 2(g~ u - u^(a+1)/(a+1))]^(-1/2) u^(b-1) du
+
+    (the report's (41), (42) print ``g~`` where ``g~ u`` is meant, SPEC section 6). Relative
+    error ~1e-15 for alpha, beta in [1, 4], g~ in [0, 1e8]; NaN beyond the range of theta.
+    """
+    theta = theta_of_gtilde(alpha, gtilde)
+    if not (theta > 0.0):
+        return math.nan, math.nan
+    j, m = jm_quadrature(alpha, beta, theta)
+    k, l = _k_l(alpha, beta, theta)
+    return k * j, l * m
+
+
+# ----------------------------------------------------------------------------------------
+# The report's Chebyshev-Beta approximation (Prop. 3-4, Appendix C)
+# ----------------------------------------------------------------------------------------
+
+@nb.njit(cache=True)
+def chebyshev_tables(n):
+    """Tables of (50)-(52) that depend on the order n only (n odd).
+
+    Returns
+    -------
+    logx : ndarray, shape ((n+1)/2,)
+        ``log x_k`` for the nodes ``x_k = cos(pi (2k+1)/(2n+2)) + 1`` in (0, 1),
+        ``k = (n+1)/2 .. n`` (52).
+    cosjk : ndarray, shape ((n+1)/2, (n+1)/2)
+        ``cos(j pi (2k+1)/(2n+2))`` for even ``j = 0, 2, .., n-1`` (rows) and those k.
+    """
+    half = (n + 1) // 2
+    logx = np.empty(half)
+    cosjk = np.empty((half, half))
+    for i in range(half):
+        k = half + i
+        ang = math.pi * (2 * k + 1) / (2 * n + 2)
+        logx[i] = math.log(math.cos(ang) + 1.0)
+        for jj in range(half):
+            cosjk[jj, i] = math.cos(2 * jj * ang)
+    return logx, cosjk
+
+
+@nb.njit(cache=True)
+def _m_series(cj, a0, shift, n, row_a, row_b):
+    """``sum_{j even} c_j a_{j,0}`` (49) with the table (53) built row by row in O(n) memory.
+
+    ``a_{0,k} = a0[shift + k]``; ``a_{1,k} = a_{0,k+1} - a_{0,k}``;
+    ``a_{j+2,k} = 2 a_{j+1,k+1} - 2 a_{j+1,k} - a_{j,k}`` (53, with the typo "- a_k" read as
+    "- a_{j,k}", see (107)). Row j+2 overwrites row j in place: entry k only needs entry k.
+    """
+    for k in range(n):
+        row_a[k] = a0[shift + k]
+    for k in range(n - 1):
+        row_b[k] = a0[shift + k + 1] - a0[shift + k]
+    total = cj[0] * row_a[0]
+    for j in range(n - 2):
+        # rows: cur = row j (to be replaced by row j+2), nxt = row j+1
+        if j % 2 == 0:
+            cur = row_a
+            nxt = row_b
+        else:
+            cur = row_b
+            nxt = row_a
+        for k in range(n - 2 - j):
+            cur[k] = 2.0 * nxt[k + 1] - 2.0 * nxt[k] - cur[k]
+        if j % 2 == 0:        # row j+2 is even
+            total += cj[(j + 2) // 2] * cur[0]
+    return total
+
+
+@nb.njit(cache=True)
+def jm_chebyshev(alpha, beta, theta, n, logx, cosjk, work):
+    """``J(theta)``, ``M(theta)`` by the report's Chebyshev-Beta approximation.
+
+    ``M_{a,b}(theta) ~ sum_{j even < n} c_j a_{j,0}`` (49)-(53): the factor
+    ``h = sqrt((x^(1-theta) - x^(a+1)) / P(x))`` (51) of the integrand is interpolated at the
+    Chebyshev nodes (52) and the products with ``(1 - x^(a+theta))^(-1/2) x^(b+theta/2-3/2)``
+    are integrated exactly through Beta functions. ``J`` follows from (48):
+    ``J_{a,b} = (a+1)/(2b) M_{a,a+b+1} + (theta-1)/(2b) M_{a,b+1}``. The coefficients c_j are
+    shared by the three M, and ``a_{0,k}`` of ``M_{a,b+1}`` is ``a_{0,k+1}`` of ``M_{a,b}``.
+
+    Exact at theta = 0 and 1 (h = 1); in between the relative error at n = 21 is up to ~1e-3
+    for J and ~7e-3 for M (alpha = 3/2, beta in [1, 4]; the interpolation error of h, not
+    rounding). The recurrence (53) amplifies rounding like ~4^n: beyond n ~ 25 it dominates.
+
+    Parameters
+    ----------
+    alpha, beta, theta : float
+        Exponents [1] (>= 1) and theta [1] in (0, 1].
+    n : int
+        Odd order of the approximation (the report uses 21).
+    logx, cosjk : ndarray
+        From :func:`chebyshev_tables` ``(n)``.
+    work : ndarray, shape (5, n + 1)
+        Scratch space.
+    """
+    half = (n + 1) // 2
+    cj = work[0]
+    a0 = work[1]
+    a0b = work[2]
+    row_a = work[3]
+    row_b = work[4]
+    # c_j (50) from h (51) at the nodes in (0, 1); j even only (odd c_j vanish by symmetry).
+    for jj in range(half):
+        cj[jj] = 0.0
+    for i in range(half):
+        lx = logx[i]
+        x = math.exp(lx)
+        xap1 = math.exp((alpha + 1.0) * lx)
+        h = math.sqrt((math.exp((1.0 - theta) * lx) - xap1)
+                      / (theta * (1.0 - x) + x - xap1))
+        for jj in range(half):
+            cj[jj] += h * cosjk[jj, i]
+    cj[0] *= 2.0 / (n + 1)
+    for jj in range(1, half):
+        cj[jj] *= 4.0 / (n + 1)
+    # a_{0,k} (53) for M_{a,b} (k = 0..n-1) and M_{a,b+1} (k = 1..n), and for M_{a,a+b+1}.
+    lam = alpha + theta
+    for k in range(n + 1):
+        a0[k] = _beta_half((beta + k - 0.5 + 0.5 * theta) / lam) / lam
+    for k in range(n):
+        a0b[k] = _beta_half((beta + alpha + 1.0 + k - 0.5 + 0.5 * theta) / lam) / lam
+    m_b = _m_series(cj, a0, 0, n, row_a, row_b)
+    m_b1 = _m_series(cj, a0, 1, n, row_a, row_b)
+    m_abp1 = _m_series(cj, a0b, 0, n, row_a, row_b)
+    j_b = ((alpha + 1.0) * m_abp1 + (theta - 1.0) * m_b1) / (2.0 * beta)
+    return j_b, m_b
+
+
+@nb.njit(cache=True)
+def iq_chebyshev(alpha, beta, gtilde, n, logx, cosjk, work):
+    """``I(g~) = K J``, ``Q(g~) = L M`` (47) with J, M from :func:`jm_chebyshev`.
+
+    Theta comes from :func:`theta_of_gtilde` (the report's step 1 of Sec. 5 uses bisection).
+    """
+    theta = theta_of_gtilde(alpha, gtilde)
+    if not (theta > 0.0):
+        return math.nan, math.nan
+    j, m = jm_chebyshev(alpha, beta, theta, n, logx, cosjk, work)
+    k, l = _k_l(alpha, beta, theta)
+    return k * j, l * m
+
+
+# ----------------------------------------------------------------------------------------
+# Closed forms
+# ----------------------------------------------------------------------------------------
+
+@nb.njit(cache=True)
+def iq_at_zero(alpha, beta):
+    """Exact ``I(0)`` (39) and ``Q(0)`` (40)::
+
+        I(0) = ((a+1)/2)^(b/(a+1) - 1) (a+1)/(a+1+2b) B(1/2, b/(a+1))
+        Q(0) = ((a+1)/2)^(b/(a+1) - 1) (1/2) B(1/2, b/(a+1))
+
+    KK (a = b = 3/2): 1.1534489, 1.2687937; a = b = 1: Q(0) = pi/2.
+    """
+    ap1 = alpha + 1.0
+    f = (0.5 * ap1) ** (beta / ap1 - 1.0) * beta_fn(0.5, beta / ap1)
+    return f * ap1 / (ap1 + 2.0 * beta), 0.5 * f
+
+
+@nb.njit(cache=True)
+def first_order_constants(alpha, beta):
+    """``C0`` and ``C1`` of the first-order, small-g~ approximation (22)::
+
+        C0 = b ((a+1)/2)^((b-a-1)/(a+1)) B(b/(a+1), 3/2)     (= b I(0))
+        C1 = b ((a+1)/2)^((b-a)/(a+1))   B((b+1)/(a+1), 1/2) (= b dI/dg~ (0))
+
+    KK: C0 = 1.7301733, C1 = 3.
+    """
+    ap1 = alpha + 1.0
+    c0 = beta * (0.5 * ap1) ** ((beta - ap1) / ap1) * beta_fn(beta / ap1, 1.5)
+    c1 = beta * (0.5 * ap1) ** ((beta - alpha) / ap1) * beta_fn((beta + 1.0) / ap1, 0.5)
+    return c0, c1
+
+
+@nb.njit(cache=True)
+def large_gtilde_constants(alpha, beta):
+    """``C`` and the exponent ``r`` of the large-g~ approximation (23)::
+
+        e^2 = 1 - 2 gamma C g~^r,   r = b/a + 1/(2a) + 1/2,
+        C = 2 sqrt(2) (b/a) (a+1)^(b/a + 1/(2a)) B((b + 1/2)/a, 3/2)
+
+    KK: C = 4.403986, r = 11/6.
+    """
+    r = beta / alpha + 0.5 / alpha + 0.5
+    c = (2.0 * math.sqrt(2.0) * beta / alpha * (alpha + 1.0) ** (r - 0.5)
+         * beta_fn((beta + 0.5) / alpha, 1.5))
+    return c, r

@@ -1,0 +1,199 @@
+"""No-rebound thresholds: the critical load g~_c and the critical damping gamma_c.
+
+Above the critical scaled load ``g~_c(alpha, beta, gamma)`` (resp. damping
+``gamma_c(alpha, beta, g~)``) the bead no longer detaches after the impact: ``e = 0``.
+
+``method="approx"``
+    Proposition 1, (24): ``g~_c = (1 / (2 gamma C))^(1/r)``, equivalently
+    ``gamma_c = 1 / (2 C g~^r)``, with ``C`` and ``r = b/a + 1/(2a) + 1/2`` of (23).
+    Valid for small gamma (large g~_c); ``gamma = 0`` gives ``inf``, as does ``g~ = 0``.
+``method="numeric"``
+    The report's bisection on the numerical CoR (Figs. 8-11): the smallest g~ (resp. gamma)
+    at which :func:`sweep.api.integrate` finds no rebound (status STUCK or AT_REST, e = 0),
+    to relative precision 1e-8. All points are bracketed and bisected together, with one
+    ``integrate`` call per iteration over the array of trial values. The search assumes that
+    the bead rebounds below the threshold and not above it (e decreases with g~ and gamma,
+    reaching 0 like the square root of the distance to the threshold, SPEC section 7).
+    Returns ``0.0`` where it does not rebound even at 1e-12 of the approximate threshold,
+    ``inf`` where it still rebounds at 1e12 times it (e.g. gamma at g~ = 0 for beta > alpha),
+    and NaN where the integrator could not decide (budget exhausted) during the search.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from sweep._arrays import PARAMETER_RULES, Broadcast
+from sweep.approx import large_gtilde_coefficient
+from sweep.model import Status
+
+__all__ = ["critical_gtilde", "critical_gamma", "RTOL"]
+
+#: Relative precision of the numerical bisection.
+RTOL = 1e-8
+_FACTOR = 4.0        # bracket expansion factor
+_MAX_EXPAND = 20     # 4^20 ~ 1e12 either way from the approximate threshold
+_METHODS = ("approx", "numeric")
+
+
+def _check_method(method):
+    if method not in _METHODS:
+        raise ValueError(f"method must be one of {_METHODS}, got {method!r}")
+
+
+def _constants(alpha, beta):
+    valid = (alpha >= 1.0) & (beta >= 1.0)
+    c, r = large_gtilde_coefficient(np.where(valid, alpha, 1.0), np.where(valid, beta, 1.0))
+    return np.where(valid, c, np.nan), np.where(valid, r, np.nan)
+
+
+def _rebounds(alpha, beta, gamma, gtilde, options):
+    """Per point: True (rebound, e > 0), False (no rebound), None -> NaN (undecided)."""
+    from sweep.api import integrate  # noqa: PLC0415 -- the integrator is only needed here
+
+    res = integrate(alpha, beta, gamma, gtilde, **options)
+    status = np.asarray(res.status)
+    e = np.asarray(res.e)
+    rebound = (status == Status.OK) & (e > 0.0)
+    stuck = (status == Status.STUCK) | (status == Status.AT_REST) | \
+        ((status == Status.OK) & (e == 0.0))
+    return rebound, rebound | stuck
+
+
+def _threshold(evaluate, start, fallback_start):
+    """Vectorised bracketing + geometric bisection for the smallest x without rebound.
+
+    ``evaluate(x, idx) -> (rebound, decided)`` for the points ``idx`` at trial values ``x``.
+    ``start``: approximate thresholds (``fallback_start`` where not finite and positive).
+    """
+    size = start.size
+    x0 = np.where(np.isfinite(start) & (start > 0.0), start, fallback_start)
+    lo = np.zeros(size)            # largest value known to rebound (0: none yet)
+    hi = np.full(size, np.inf)     # smallest value known not to rebound
+    out = np.full(size, np.nan)
+    active = np.isfinite(x0) & (x0 > 0.0)
+    expansions = np.zeros(size, dtype=int)
+
+    def probe(idx, x):
+        rebound, decided = evaluate(x, idx)
+        bad = idx[~decided]
+        active[bad] = False
+        out[bad] = np.nan
+        ok = decided
+        up = idx[ok & rebound]
+        down = idx[ok & ~rebound]
+        lo[up] = np.maximum(lo[up], x[ok & rebound])
+        hi[down] = np.minimum(hi[down], x[ok & ~rebound])
+
+    # Bracket, expanding geometrically from the approximate threshold.
+    while True:
+        need = active & ((lo == 0.0) | np.isinf(hi))
+        too_far = need & (expansions > _MAX_EXPAND)
+        out[too_far & (lo == 0.0)] = 0.0
+        out[too_far & np.isinf(hi)] = np.inf
+        active &= ~too_far
+        need &= ~too_far
+        idx = np.flatnonzero(need)
+        if idx.size == 0:
+            break
+        x = np.where((lo[idx] == 0.0) & np.isinf(hi[idx]), x0[idx],
+                     np.where(np.isinf(hi[idx]), lo[idx] * _FACTOR, hi[idx] / _FACTOR))
+        expansions[idx] += 1
+        probe(idx, x)
+    # Bisect in log space until hi/lo - 1 <= RTOL.
+    while True:
+        idx = np.flatnonzero(active & (hi > lo * (1.0 + RTOL)))
+        if idx.size == 0:
+            break
+        probe(idx, np.sqrt(lo[idx] * hi[idx]))
+    done = active
+    out[done] = hi[done]
+    return out
+
+
+def critical_gtilde(alpha, beta, gamma, method="approx", **integrator_options):
+    """Critical scaled load ``g~_c`` [1] above which the bead does not rebound.
+
+    Parameters
+    ----------
+    alpha, beta : array_like
+        Exponents [1], >= 1.
+    gamma : array_like
+        Scaled damping [1], >= 0, eq. (2).
+    method : {"approx", "numeric"}
+        Proposition 1, (24), or bisection on the numerical CoR (see the module docstring).
+    **integrator_options
+        For ``"numeric"``: passed to :func:`sweep.api.integrate` (``steps``, ``rest_tol``,
+        ``max_steps``).
+
+    Returns
+    -------
+    ndarray or float
+        ``g~_c``, broadcast over the inputs (float for a scalar call); ``inf`` at gamma = 0,
+        NaN at invalid points of an array call.
+
+    Raises
+    ------
+    ValueError
+        Unknown method; a scalar call with an invalid value (naming it).
+    """
+    _check_method(method)
+    b = Broadcast(("alpha", "beta", "gamma"), (alpha, beta, gamma))
+    b.raise_if_invalid(PARAMETER_RULES)
+    a, be, g = b.flat
+    valid = np.isfinite(a) & np.isfinite(be) & np.isfinite(g) & (g >= 0.0)
+    c, r = _constants(a, be)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        approx = np.where(valid, (1.0 / (2.0 * g * c)) ** (1.0 / r), np.nan)
+    if method == "approx" or not valid.any():
+        return b.restore(approx)
+    approx = np.where(g > 0.0, approx, np.nan)     # gamma = 0: never sticks, inf below
+
+    def evaluate(x, idx):
+        return _rebounds(a[idx], be[idx], g[idx], x, integrator_options)
+
+    out = _threshold(evaluate, approx, np.nan)
+    out[valid & (g == 0.0)] = np.inf
+    return b.restore(out)
+
+
+def critical_gamma(alpha, beta, gtilde, method="approx", **integrator_options):
+    """Critical scaled damping ``gamma_c`` [1] above which the bead does not rebound.
+
+    Parameters
+    ----------
+    alpha, beta : array_like
+        Exponents [1], >= 1.
+    gtilde : array_like
+        Scaled load [1], >= 0, eq. (2).
+    method : {"approx", "numeric"}
+        ``gamma_c = 1 / (2 C g~^r)`` from (24), or bisection on the numerical CoR.
+    **integrator_options
+        For ``"numeric"``: passed to :func:`sweep.api.integrate`.
+
+    Returns
+    -------
+    ndarray or float
+        ``gamma_c``; the approximation gives ``inf`` at g~ = 0, where the numerical search
+        starts from gamma = 1.
+
+    Raises
+    ------
+    ValueError
+        Unknown method; a scalar call with an invalid value (naming it).
+    """
+    _check_method(method)
+    b = Broadcast(("alpha", "beta", "gtilde"), (alpha, beta, gtilde))
+    b.raise_if_invalid(PARAMETER_RULES)
+    a, be, gt = b.flat
+    valid = np.isfinite(a) & np.isfinite(be) & np.isfinite(gt) & (gt >= 0.0)
+    c, r = _constants(a, be)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        approx = np.where(valid, 1.0 / (2.0 * c * gt ** r), np.nan)
+    if method == "approx" or not valid.any():
+        return b.restore(approx)
+
+    def evaluate(x, idx):
+        return _rebounds(a[idx], be[idx], x, gt[idx], integrator_options)
+
+    out = _threshold(evaluate, np.where(valid, approx, np.nan), np.where(valid, 1.0, np.nan))
+    return b.restore(out)

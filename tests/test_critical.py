@@ -1,0 +1,92 @@
+"""sweep.critical: no-rebound thresholds g~_c and gamma_c, by (24) and by bisection on the
+numerical CoR (the report's Figs. 8-11)."""
+import numpy as np
+import pytest
+
+import sweep
+from sweep import critical as K
+from sweep.model import Status
+
+
+def test_approx_kuwabara_kono_law():
+    gamma = np.array([1e-4, 1e-3, 1e-2, 0.1])
+    # Prop. 1 for KK: g~_c = 0.30522 gamma^(-6/11)
+    np.testing.assert_allclose(K.critical_gtilde(1.5, 1.5, gamma), 0.30522 * gamma ** (-6 / 11),
+                               rtol=2e-5)
+    # gamma_c and g~_c are inverse functions of each other
+    gt = K.critical_gtilde(1.5, 1.5, gamma)
+    np.testing.assert_allclose(K.critical_gamma(1.5, 1.5, gt), gamma, rtol=1e-14)
+
+
+@pytest.mark.parametrize("alpha, beta", [(1.5, 1.0), (1.5, 1.25), (1.5, 2.5), (1.0, 1.0)])
+def test_approx_is_where_large_gtilde_cor_vanishes(alpha, beta):
+    from sweep.approx import approx_cor  # noqa: PLC0415
+
+    gamma = 0.01
+    gc = K.critical_gtilde(alpha, beta, gamma)
+    e, _ = approx_cor("large_gtilde", np.full(2, alpha), np.full(2, beta), np.full(2, gamma),
+                      np.array([gc * (1 - 1e-9), gc * (1 + 1e-9)]))
+    assert 0 < e[0] < 1e-3 and e[1] == 0.0
+
+
+def test_approx_limits_and_types():
+    assert K.critical_gtilde(1.5, 1.5, 0.0) == np.inf
+    assert K.critical_gamma(1.5, 1.5, 0.0) == np.inf
+    assert isinstance(K.critical_gtilde(1.5, 1.5, 0.01), float)
+    out = K.critical_gtilde(np.array([[1.5], [1.0]]), 1.5, [0.01, 0.1, 0.0])
+    assert out.shape == (2, 3) and np.isinf(out[:, 2]).all()
+    out = K.critical_gtilde([1.5, 0.5, 1.5], 1.5, [0.01, 0.01, np.nan])
+    assert np.isfinite(out[0]) and np.isnan(out[1:]).all()
+
+
+@pytest.mark.parametrize("call, name", [
+    (lambda: K.critical_gtilde(0.5, 1.5, 0.01), "alpha"),
+    (lambda: K.critical_gtilde(1.5, 1.5, -0.01), "gamma"),
+    (lambda: K.critical_gamma(1.5, 0.2, 1.0), "beta"),
+    (lambda: K.critical_gamma(1.5, 1.5, -1.0), "gtilde"),
+    (lambda: K.critical_gamma(1.5, 1.5, np.inf), "gtilde"),
+    (lambda: K.critical_gtilde(1.5, 1.5, 0.01, method="bisect"), "method"),
+])
+def test_scalar_invalid_raises_naming_argument(call, name):
+    with pytest.raises(ValueError, match=name):
+        call()
+
+
+def test_numeric_gtilde_approaches_approx_as_gamma_vanishes():
+    """Figs. 8-11: (24) is the small-gamma limit; the relative gap shrinks with gamma.
+
+    Measured for KK: 0.62, 0.19, 0.023, 0.0028 at gamma = 0.3, 0.1, 0.01, 0.001.
+    """
+    gamma = np.array([0.1, 0.01, 0.001])
+    num = K.critical_gtilde(1.5, 1.5, gamma, method="numeric")
+    apx = K.critical_gtilde(1.5, 1.5, gamma)
+    gap = apx / num - 1
+    assert np.all(gap > 0) and np.all(np.diff(gap) < 0)
+    assert gap[0] < 0.25 and gap[1] < 0.03 and gap[2] < 0.004
+    # the bisection brackets the jump to e = 0 to 1e-8
+    below = sweep.integrate(1.5, 1.5, gamma, num * (1 - 2e-8))
+    at = sweep.integrate(1.5, 1.5, gamma, num)
+    assert np.all(below.status == Status.OK) and np.all(below.e > 0)
+    assert np.all(at.e == 0.0) and np.all(at.sticks)
+
+
+def test_numeric_gamma_consistent_with_numeric_gtilde():
+    gc = K.critical_gamma(1.5, 1.5, 10.0, method="numeric")
+    assert isinstance(gc, float)
+    assert gc == pytest.approx(0.0016529, rel=1e-4)
+    assert K.critical_gtilde(1.5, 1.5, gc, method="numeric") == pytest.approx(10.0, rel=1e-6)
+    assert sweep.cor(1.5, 1.5, gc * (1 - 2e-8), 10.0) > 0
+    assert sweep.cor(1.5, 1.5, gc, 10.0) == 0.0
+
+
+def test_numeric_invalid_and_zero_gamma_points():
+    out = K.critical_gtilde([1.5, 1.5, 0.5], 1.5, [0.0, 0.05, 0.05], method="numeric")
+    assert out[0] == np.inf and np.isfinite(out[1]) and np.isnan(out[2])
+
+
+def test_numeric_passes_integrator_options():
+    coarse = K.critical_gtilde(1.5, 1.5, 0.01, method="numeric", steps=24)
+    fine = K.critical_gtilde(1.5, 1.5, 0.01, method="numeric")
+    assert coarse == pytest.approx(fine, rel=1e-3)
+    with pytest.raises(ValueError, match="steps"):
+        K.critical_gtilde(1.5, 1.5, 0.01, method="numeric", steps=1)
