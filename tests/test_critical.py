@@ -90,3 +90,13 @@ def test_numeric_passes_integrator_options():
     assert coarse == pytest.approx(fine, rel=1e-3)
     with pytest.raises(ValueError, match="steps"):
         K.critical_gtilde(1.5, 1.5, 0.01, method="numeric", steps=1)
+
+
+def test_numeric_threshold_confirmed_by_dop853_reference():
+    # An independent judge (scipy DOP853 with grazing detection, tests/reference.py) sees the
+    # rebound stop within 1e-6 of the bisected g~_c.
+    from reference import dop853_cor  # noqa: PLC0415
+
+    gc = K.critical_gtilde(1.5, 1.5, 0.01, method="numeric")
+    assert dop853_cor(1.5, 1.5, 0.01, gc * (1 - 1e-6)).e > 0
+    assert dop853_cor(1.5, 1.5, 0.01, gc * (1 + 1e-6)).e == 0.0
