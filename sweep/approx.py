@@ -37,13 +37,13 @@ from __future__ import annotations
 
 import math
 import operator
-import threading
 
 import numba as nb
 import numpy as np
 
 from sweep._arrays import PARAMETER_RULES, Broadcast
 from sweep._jit import kernel_cache
+from sweep._parallel import parallel_allowed
 from sweep.model import Status
 from sweep.special import (chebyshev_tables, first_order_constants, iq_at_zero, iq_chebyshev,
                            iq_quadrature, large_gtilde_constants)
@@ -205,30 +205,6 @@ def _kernel_parallel(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2)
 @_jit()
 def _kernel_serial(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
     _run_range(code, 0, alpha.size, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2)
-
-
-def parallel_allowed():
-    """Whether a parallel kernel may be launched from the current thread.
-
-    numba's ``workqueue`` threading layer is not thread-safe: launched from several Python
-    threads at once it aborts the process. Off the main thread the parallel kernel is used
-    only under a thread-safe layer (tbb, omp); with one numba thread it is pointless.
-    """
-    if nb.get_num_threads() <= 1:
-        return False
-    if threading.current_thread() is threading.main_thread():
-        return True
-    try:
-        layer = nb.threading_layer()
-    except ValueError:  # no parallel kernel has run yet: the layer is not chosen
-        layer = nb.config.THREADING_LAYER
-        if layer in ("default", "safe", "threadsafe"):
-            try:  # numba prefers tbb when it can load it
-                import numba.np.ufunc.tbbpool  # noqa: F401, PLC0415
-                layer = "tbb"
-            except ImportError:
-                layer = "unknown"
-    return layer in ("tbb", "omp")
 
 
 def _check_n(n):

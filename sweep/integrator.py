@@ -40,11 +40,11 @@ every absolute error by about 1/e.
 from __future__ import annotations
 
 import math
-import threading
 
 import numba as nb
 import numpy as np
 
+from sweep._parallel import parallel_allowed
 from sweep.events import ON_U, ON_V, locate
 from sweep.model import Status
 from sweep.stepper import N_DENSE, N_STAGES, dense_coefficients, power_kind, ppow, rhs, rk_step
@@ -281,26 +281,6 @@ def _kernel_serial(order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps
                    e, t_f, u_max, n_steps, status):
     _run_range(0, order.size, order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps,
                e, t_f, u_max, n_steps, status)
-
-
-def parallel_allowed():
-    """Whether a parallel kernel may be launched from this thread.
-
-    numba's default ``workqueue`` threading layer is not thread-safe and aborts the process
-    when parallel kernels run from several Python threads (Dask workers): there, and whenever
-    numba is limited to one thread, the serial kernel is used instead. The tbb and omp
-    layers are safe.
-    """
-    if nb.get_num_threads() == 1:
-        return False
-    if threading.current_thread() is threading.main_thread():
-        return True
-    layer = nb.config.THREADING_LAYER
-    try:
-        layer = nb.threading_layer()
-    except ValueError:  # no parallel kernel has run yet: the layer is not chosen
-        pass
-    return layer in ("tbb", "omp", "safe", "threadsafe")
 
 
 def integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, parallel=None):
