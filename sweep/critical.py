@@ -140,7 +140,7 @@ def critical_gtilde(alpha, beta, gamma, method="approx", **integrator_options):
     b = Broadcast(("alpha", "beta", "gamma"), (alpha, beta, gamma))
     b.raise_if_invalid(PARAMETER_RULES)
     a, be, g = b.flat
-    valid = np.isfinite(a) & np.isfinite(be) & np.isfinite(g) & (g >= 0.0)
+    valid = (a >= 1.0) & (be >= 1.0) & np.isfinite(a) & np.isfinite(be) & np.isfinite(g) & (g >= 0.0)
     c, r = _constants(a, be)
     with np.errstate(divide="ignore", invalid="ignore"):
         approx = np.where(valid, (1.0 / (2.0 * g * c)) ** (1.0 / r), np.nan)
@@ -185,7 +185,7 @@ def critical_gamma(alpha, beta, gtilde, method="approx", **integrator_options):
     b = Broadcast(("alpha", "beta", "gtilde"), (alpha, beta, gtilde))
     b.raise_if_invalid(PARAMETER_RULES)
     a, be, gt = b.flat
-    valid = np.isfinite(a) & np.isfinite(be) & np.isfinite(gt) & (gt >= 0.0)
+    valid = (a >= 1.0) & (be >= 1.0) & np.isfinite(a) & np.isfinite(be) & np.isfinite(gt) & (gt >= 0.0)
     c, r = _constants(a, be)
     with np.errstate(divide="ignore", invalid="ignore"):
         approx = np.where(valid, 1.0 / (2.0 * c * gt ** r), np.nan)

@@ -100,3 +100,14 @@ def test_numeric_threshold_confirmed_by_dop853_reference():
     gc = K.critical_gtilde(1.5, 1.5, 0.01, method="numeric")
     assert dop853_cor(1.5, 1.5, 0.01, gc * (1 - 1e-6)).e > 0
     assert dop853_cor(1.5, 1.5, 0.01, gc * (1 + 1e-6)).e == 0.0
+
+
+def test_out_of_domain_exponents_give_nan_in_arrays():
+    import numpy as np
+
+    import sweep
+
+    g = sweep.critical_gtilde(np.array([1.5, 0.5]), 1.5, 0.01)
+    assert np.isfinite(g[0]) and np.isnan(g[1])
+    c = sweep.critical_gamma(1.5, np.array([0.9, 1.5]), 1.0)
+    assert np.isnan(c[0]) and np.isfinite(c[1])
