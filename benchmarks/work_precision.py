@@ -1,0 +1,45 @@
+"""Work-precision benchmark: time per point against error, sweep against scipy.
+
+The same measurement as ``sweep report speed`` (see :mod:`sweep.reports_speed`), with every
+knob exposed: on one common point set, the integrator at several resolutions, each of the
+report's approximations, and scipy's ``solve_ivp`` (RK45, DOP853 with events, one point at
+a time) on a subset; the reference is the integrator at high resolution, cross-checked with
+the test suite's DOP853 reference (tests/reference.py) on a subset.
+
+    python benchmarks/work_precision.py [--out DIR] [--n 20000] [--n-scipy 100]
+        [--n-check 100] [--model kk] [--ref-steps 1024] [--steps 12 16 24 ...]
+
+Writes DIR/work_precision.png, DIR/speed.md, DIR/speed.csv, DIR/speed_headline.csv and
+prints the markdown tables.
+"""
+from __future__ import annotations
+
+import argparse
+
+from sweep.paper_values import PAPER_MODELS
+from sweep.reports_speed import STEPS_LIST, speed_report
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", default="work_precision", help="output directory")
+    p.add_argument("--n", type=int, default=20000, help="common point set size")
+    p.add_argument("--n-scipy", type=int, default=100, help="points given to scipy")
+    p.add_argument("--n-check", type=int, default=100,
+                   help="points on which the reference is cross-checked with DOP853")
+    p.add_argument("--model", choices=list(PAPER_MODELS), default="kk")
+    p.add_argument("--ref-steps", type=float, default=1024)
+    p.add_argument("--steps", type=float, nargs="+", default=list(STEPS_LIST))
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--seed", type=int, default=0)
+    args = p.parse_args(argv)
+    res = speed_report(args.out, n_points=args.n, steps_list=args.steps,
+                       ref_steps=args.ref_steps, n_check=args.n_check, n_scipy=args.n_scipy,
+                       model=args.model, seed=args.seed, repeat=args.repeat, progress=True)
+    print(res["markdown"])
+    for f in res["files"]:
+        print(f)
+
+
+if __name__ == "__main__":
+    main()

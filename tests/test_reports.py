@@ -1,0 +1,357 @@
+"""Tests of the reports: accuracy maps, the report's tables/figures, speed against error.
+
+Small inputs throughout (tiny datasets, a few dozen gamma values, coarse integrator
+resolutions): the point is that the report code computes what it claims on the data it is
+given, checked against obviously-correct slow recomputations.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import xarray as xr
+from scipy.special import beta as beta_fn
+
+import sweep
+from sweep import paper_values as pv
+from sweep import reports
+from sweep.reports_accuracy import REGIONS, accuracy_report, load_errors
+from sweep.reports_paper import (compute_sweeps, gamma_c_24, paper_gamma_grid, paper_report,
+                                 table_rows)
+from sweep.reports_speed import scipy_user_cor, speed_report, time_at_error
+
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+def _large_gtilde_c_r(alpha, beta):
+    """C and r of (23), written out independently of sweep.approx."""
+    r = beta / alpha + 1 / (2 * alpha) + 0.5
+    c = (2 * math.sqrt(2) * (beta / alpha) * (alpha + 1) ** (beta / alpha + 1 / (2 * alpha))
+         * beta_fn((beta + 0.5) / alpha, 1.5))
+    return c, r
+
+
+def _is_png(path):
+    return path.exists() and path.stat().st_size > 1000 and path.read_bytes()[:8] == PNG
+
+
+def _read_csv(path):
+    with open(path, newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
+# --------------------------------------------------------------------------- accuracy
+
+@pytest.fixture(scope="module")
+def grid_dataset(tmp_path_factory):
+    """A tiny grid dataset in the store's layout, with known approximation errors."""
+    alpha = np.array([1.5])
+    beta = np.array([1.0, 1.5])
+    gamma = np.array([0.0, 1e-3, 1e-2, 0.1, 0.3])
+    gtilde = np.array([0.0, 0.01, 1.0, 5.0, 30.0])
+    A, B, Gm, Gt = np.meshgrid(alpha, beta, gamma, gtilde, indexing="ij")
+    r = sweep.integrate(A, B, Gm, Gt, steps=16)
+    rng = np.random.default_rng(3)
+    delta = 10.0 ** rng.uniform(-8, -1, A.shape)
+    status = np.asarray(r.status).copy()
+    e_ord1 = r.e + delta
+    # one undecided point carrying a huge error: it must be excluded everywhere
+    status[0, 1, 2, 2] = sweep.Status.BUDGET_EXHAUSTED
+    e_ord1[0, 1, 2, 2] = r.e[0, 1, 2, 2] + 10.0
+    dims = ("alpha", "beta", "gamma", "gtilde")
+    ds = xr.Dataset(
+        {"e_numeric": (dims, r.e), "sticks": (dims, r.sticks), "status": (dims, status),
+         "e_ord1": (dims, e_ord1),
+         "error_large_gtilde": (dims, -2.0 * delta)},
+        coords={"alpha": alpha, "beta": beta, "gamma": gamma, "gtilde": gtilde},
+        attrs={"title": "tiny grid"})
+    path = tmp_path_factory.mktemp("acc") / "tiny.nc"
+    ds.to_netcdf(path)
+    return path, ds
+
+
+def _slow_region_stats(ds, method):
+    """Max and median abs error per (model, region) by explicit loops over all points."""
+    out = {}
+    for ia, a in enumerate(ds.alpha.values):
+        for ib, b in enumerate(ds.beta.values):
+            c, r = _large_gtilde_c_r(a, b)
+            buckets = {reg: [] for reg in REGIONS}
+            for ig, g in enumerate(ds.gamma.values):
+                for it, G in enumerate(ds.gtilde.values):
+                    idx = (ia, ib, ig, it)
+                    if int(ds.status.values[idx]) not in (0, 1, 2):
+                        continue
+                    if f"error_{method}" in ds:
+                        err = abs(float(ds[f"error_{method}"].values[idx]))
+                    else:
+                        err = abs(float(ds[f"e_{method}"].values[idx])
+                                  - float(ds.e_numeric.values[idx]))
+                    stick = bool(ds.sticks.values[idx])
+                    gc = math.inf if g == 0 else (1 / (2 * g * c)) ** (1 / r)
+                    buckets["all"].append(err)
+                    buckets["stick" if stick else "rebound"].append(err)
+                    if not stick and G > 0.5 * gc:
+                        buckets["rebound, g~ > g~_c/2"].append(err)
+                    elif not stick:
+                        band = ("gamma <= 0.01" if g <= 0.01 else
+                                "0.01 < gamma <= 0.1" if g <= 0.1 else "gamma > 0.1")
+                        buckets[f"rebound, {band}, g~ <= g~_c/2"].append(err)
+            for reg, v in buckets.items():
+                out[(float(a), float(b), reg)] = ((max(v), float(np.median(v)), len(v))
+                                                  if v else (None, None, 0))
+    return out
+
+
+def test_accuracy_report_grid(grid_dataset, tmp_path):
+    path, ds = grid_dataset
+    res = accuracy_report(path, tmp_path / "acc")
+    names = {f.name for f in res["files"]}
+    assert names == {"accuracy_ord1.png", "accuracy_large_gtilde.png", "accuracy.csv",
+                     "accuracy.md"}
+    assert _is_png(tmp_path / "acc" / "accuracy_ord1.png")
+    assert _is_png(tmp_path / "acc" / "accuracy_large_gtilde.png")
+    rows = _read_csv(tmp_path / "acc" / "accuracy.csv")
+    assert len(rows) == 2 * 2 * len(REGIONS)          # methods x models x regions
+    for method in ("ord1", "large_gtilde"):
+        slow = _slow_region_stats(ds, method)
+        for row in rows:
+            if row["method"] != method:
+                continue
+            mx, med, n = slow[(float(row["alpha"]), float(row["beta"]), row["region"])]
+            assert int(row["n_points"]) == n
+            if n:
+                assert float(row["max_abs_error"]) == pytest.approx(mx, rel=1e-12)
+                assert float(row["median_abs_error"]) == pytest.approx(med, rel=1e-12)
+            else:
+                assert row["max_abs_error"] == ""
+    # the undecided point (error 10) is excluded and counted
+    kk_all = [r for r in rows if r["method"] == "ord1" and r["beta"] == "1.5"
+              and r["region"] == "all"][0]
+    assert int(kk_all["excluded"]) == 1
+    assert float(kk_all["max_abs_error"]) < 1.0
+    assert "| ord1 | 1.5 | 1.5 | all |" in (tmp_path / "acc" / "accuracy.md").read_text()
+
+
+def test_accuracy_report_scattered(tmp_path):
+    rng = np.random.default_rng(0)
+    n = 240
+    g = 10 ** rng.uniform(-3, -0.5, n)
+    G = 10 ** rng.uniform(-2, 1.5, n)
+    b = rng.choice([1.0, 2.5], n)
+    r = sweep.integrate(1.5, b, g, G, steps=16)
+    e2 = sweep.cor(1.5, b, g, G, method="ord2_approx")
+    sp = sweep.cor(1.5, b, g, G, method="sp")          # NaN: not KK
+    ds = xr.Dataset({"e_numeric": ("point", r.e), "sticks": ("point", r.sticks),
+                     "e_ord2_approx": ("point", e2), "e_sp": ("point", sp)},
+                    coords={"alpha": ("point", np.full(n, 1.5)), "beta": ("point", b),
+                            "gamma": ("point", g), "gtilde": ("point", G)})
+    path = tmp_path / "pts.nc"
+    ds.to_netcdf(path)
+    res = accuracy_report(path)                          # default output directory
+    assert res["out"] == tmp_path / "pts_accuracy"
+    assert _is_png(res["out"] / "accuracy_ord2_approx.png")
+    assert _is_png(res["out"] / "accuracy_sp.png")
+    rows = {(r["method"], r["beta"], r["region"]): r for r in res["rows"]}
+    for bb in (1.0, 2.5):
+        sel = b == bb
+        row = rows[("ord2_approx", bb, "all")]
+        assert row["n_points"] == sel.sum()
+        assert row["max_abs_error"] == pytest.approx(np.max(np.abs(e2 - r.e)[sel]))
+        assert rows[("sp", bb, "all")]["n_undefined"] == sel.sum()
+        assert rows[("sp", bb, "all")]["max_abs_error"] is None
+
+
+def test_accuracy_report_needs_errors(tmp_path):
+    ds = xr.Dataset({"e_numeric": ("point", np.ones(3))},
+                    coords={p: ("point", np.ones(3)) for p in ("alpha", "beta", "gamma",
+                                                               "gtilde")})
+    with pytest.raises(ValueError, match="no approximation error"):
+        load_errors(ds)
+
+
+# --------------------------------------------------------------------------- paper tables
+
+def test_paper_values_match_spec_quotes():
+    # SPEC section 5 quotes Table 4 (KK); the transcription must agree with it.
+    kk = pv.TABLE_A["kk"]
+    assert kk[0.0]["numint"] == (1.37e-5, 1.60e-3)
+    assert kk[0.05]["numint"] == (1.52e-5, 1.78e-3)
+    assert kk[1.0]["numint"] == (3.67e-4, 2.08e-1)
+    assert kk[1.0]["approx"] == (4.58e-4, 2.09e-1)
+    assert pv.TABLE_B["kk"]["numint"][:2] == (1.06e-7, 2.38e-4)
+    assert pv.TABLE_B["kk"]["approx"][:2] == (8.11e-5, 2.11e-2)
+    for key in pv.PAPER_MODELS:
+        assert set(pv.TABLE_A[key]) == {0.0, 0.05, 1.0}
+    # every None is explained
+    explained = {(m, part, g, col.replace("edge1", "")) for (m, part, g, col)
+                 in pv.TRANSCRIPTION_NOTES}
+    for key, t in pv.TABLE_A.items():
+        for g, cols in t.items():
+            for col, pair in cols.items():
+                if None in pair:
+                    assert (key, "a", g, col) in explained
+
+
+@pytest.mark.parametrize("key", list(pv.PAPER_MODELS))
+def test_paper_grid_reproduces_printed_window_edges(key):
+    """The grid rule gives the report's printed g~ = 10 edges, digit for digit."""
+    a, b = pv.PAPER_MODELS[key][:2]
+    c, r = _large_gtilde_c_r(a, b)
+    gamma, end = paper_gamma_grid(a, b, 10.0, 1000)
+    assert end == pytest.approx(min(0.1, 1.1 / (2 * c * 10.0 ** r)), rel=1e-12)
+    assert gamma_c_24(a, b, 10.0) == pytest.approx(1 / (2 * c * 10.0 ** r), rel=1e-12)
+    assert gamma.size == 1000 and gamma[0] == 0.0 and gamma[-1] == end
+    for printed, frac in zip(pv.TABLE_B_EDGES[key], pv.WINDOW_FRACTIONS):
+        if printed is None:
+            continue
+        digits = len(repr(printed).split(".")[1]) if "e" not in repr(printed) else 5
+        if key == "shc" and frac == 0.92:
+            digits = 5                                   # printed "0.00020"
+        assert round(frac * end, digits) == pytest.approx(printed, abs=1e-12)
+    for G in (0.0, 0.05, 1.0):                           # the report's 0.02 edge
+        _, end = paper_gamma_grid(a, b, G, 10)
+        if not (key == "shc" and G == 1.0):
+            assert pv.WINDOW_FRACTIONS[0] * end == pytest.approx(0.02)
+
+
+@pytest.fixture(scope="module")
+def small_sweeps():
+    return compute_sweeps(models=["kk", "shc"], n_gamma=41, steps=16)
+
+
+def test_paper_table_maxima_match_direct_computation(small_sweeps):
+    sweeps = small_sweeps
+    # the data are what the api gives on the report's grid
+    d = sweeps[("shc", 1.0)]
+    gamma, _ = paper_gamma_grid(1.5, 2.5, 1.0, 41)
+    np.testing.assert_array_equal(d["gamma"], gamma)
+    np.testing.assert_array_equal(d["numeric"], sweep.integrate(1.5, 2.5, gamma, 1.0,
+                                                                steps=16).e)
+    np.testing.assert_array_equal(d["approx"], sweep.cor(1.5, 2.5, gamma, 1.0,
+                                                         method="ord2_approx"))
+    rows = table_rows(sweeps)
+    assert len(rows) == 2 * (3 * 2 * 4 + 1 * 2 * 3)      # models x (part a + part b)
+    for row in rows:
+        d = sweeps[(row["model"], row["gtilde"])]
+        end = d["gamma"][-1]
+        best = None
+        for g, en, ec in zip(d["gamma"], d["numeric"], d[row["coefficients"]]):
+            inside = {"low": g < 0.2 * end, "mid": 0.2 * end <= g <= 0.92 * end,
+                      "high": g > 0.92 * end, "ge": g >= 0.2 * end}[row["window"]]
+            if inside:
+                err = abs(float(ec) - float(en))
+                best = err if best is None else max(best, err)
+        assert row["max_abs_error"] == best
+    one = [r for r in rows if (r["model"], r["gtilde"], r["coefficients"], r["window"])
+           == ("kk", 0.0, "numint", "low")][0]
+    assert one["report"] == 1.37e-5 and one["table"] == "Table 4"
+    one = [r for r in rows if (r["model"], r["gtilde"], r["coefficients"], r["window"])
+           == ("shc", 10.0, "approx", "mid")][0]
+    assert one["report"] == 2.50e-1
+
+
+def test_paper_report_files(tmp_path):
+    res = paper_report(tmp_path / "p", n_gamma=21, n_crit=6, models=["kk"], steps=16)
+    out = tmp_path / "p"
+    for name in ("paper_report.md", "paper_tables.csv", "paper_critical.csv",
+                 "paper_sweeps.npz"):
+        assert (out / name).exists(), name
+    assert _is_png(out / "paper_figure10_kk.png")
+    assert _is_png(out / "paper_errors_kk.png")
+    md = (out / "paper_report.md").read_text()
+    assert "Table 4: Kuwabara-Kono" in md and "1.37e-05" in md and "2.11e-02" in md
+    rows = _read_csv(out / "paper_tables.csv")
+    assert {r["table"] for r in rows} == {"Table 4"}
+    crit = res["critical"]["kk"]
+    # (24) is the small-gamma asymptote: close at gamma <= 0.01, worse at gamma = 1
+    assert np.nanmax(crit["relerr_zoom"]) < 0.05
+    assert crit["relerr"][-1] > 0.3
+    np.testing.assert_allclose(crit["approx"], 0.30522 * crit["gamma"] ** (-6 / 11),
+                               rtol=1e-4)
+
+
+# --------------------------------------------------------------------------- speed
+
+def test_time_at_error_interpolates_log_log():
+    err = np.array([1e-3, 1e-6, 1e-9, 1e-12])
+    t = 1e-4 * err ** -0.2                         # a power law: exact in log-log
+    val, exact = time_at_error(err, t, 3e-8)
+    assert exact and val == pytest.approx(1e-4 * 3e-8 ** -0.2, rel=1e-12)
+    val, exact = time_at_error(err, t, 1e-14)      # below every measured error
+    assert not exact and val == pytest.approx(t[-1])
+    val, exact = time_at_error(err[::-1], t[::-1], 1e-1)
+    assert not exact and val == pytest.approx(t[0])
+
+
+def test_scipy_user_cor_agrees_with_integrator():
+    for a, b, g, G in ((1.5, 1.5, 0.01, 0.1), (1.5, 1.0, 0.05, 0.0), (1.5, 2.5, 0.001, 2.0)):
+        ref = sweep.integrate(a, b, g, G).e
+        assert scipy_user_cor(a, b, g, G, "DOP853", 1e-11) == pytest.approx(ref, abs=1e-8)
+    assert sweep.integrate(1.5, 1.5, 0.1, 2.0).sticks
+    assert scipy_user_cor(1.5, 1.5, 0.1, 2.0, "RK45", 1e-6) == 0.0
+
+
+def test_speed_report_small(tmp_path):
+    res = speed_report(tmp_path / "s", n_points=300, steps_list=(12, 24), ref_steps=128,
+                       n_check=2, n_scipy=3, repeat=1,
+                       scipy_settings=(("RK45", (1e-4,)), ("DOP853", (1e-6, 1e-9))))
+    out = tmp_path / "s"
+    for name in ("speed.md", "speed.csv", "speed_headline.csv"):
+        assert (out / name).exists(), name
+    assert _is_png(out / "work_precision.png")
+    rows = res["rows"]
+    integ = {r["setting"]: r for r in rows if r["kind"] == "integrator"}
+    assert set(integ) == {"steps=12", "steps=24", f"steps={sweep.DEFAULT_STEPS:g} (default)"}
+    assert integ["steps=24"]["max_abs_error"] < integ["steps=12"]["max_abs_error"]
+    assert {r["setting"] for r in rows if r["kind"] == "approximation"} == set(
+        sweep.api.APPROXIMATIONS)
+    assert sum(r["kind"] == "scipy" for r in rows) == 3
+    for r in rows:
+        assert r["seconds_per_point"] > 0
+        assert r["points_per_second"] == pytest.approx(1 / r["seconds_per_point"])
+    assert res["reference"]["crosscheck_max_diff"] < 1e-6
+    assert len(res["headline"]) == 4 and all(h["ratio"] > 0 for h in res["headline"])
+    md = (out / "speed.md").read_text()
+    assert "numba threads" in md and "scipy" in md
+
+
+# --------------------------------------------------------------------------- CLI, imports
+
+def test_add_report_commands(grid_dataset, tmp_path):
+    parser = argparse.ArgumentParser(prog="sweep")
+    sub = parser.add_subparsers(dest="command", required=True)
+    reports.add_report_commands(sub)
+    args = parser.parse_args(["report", "paper"])
+    assert args.func is reports._cmd_paper and args.n_gamma == 1000 and args.models is None
+    args = parser.parse_args(["report", "speed", "--n-points", "50", "--model", "shc"])
+    assert args.func is reports._cmd_speed and args.n_points == 50 and args.model == "shc"
+    with pytest.raises(SystemExit):
+        parser.parse_args(["report", "paper", "--models", "nonsense"])
+    args = parser.parse_args(["report", "accuracy", str(grid_dataset[0]), "--out",
+                              str(tmp_path / "cli")])
+    assert args.func(args) == 0
+    assert (tmp_path / "cli" / "accuracy.md").exists()
+
+
+def test_import_sweep_does_not_import_matplotlib():
+    code = ("import sys, sweep, sweep.reports, sweep.paper_values; "
+            "sys.exit('matplotlib' in sys.modules or 'xarray' in sys.modules)")
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+
+
+def test_machine_description_and_tables(tmp_path):
+    m = reports.machine_description()
+    assert m["numba_threads"] >= 1 and m["cpu"]
+    assert m["threading_layer"] in ("tbb", "omp", "workqueue") or "unavailable" in \
+        m["threading_layer"]
+    md = reports.write_table([{"x": 1.5, "y": None, "z": 1.23456e-7}], ["x", "y", "z"],
+                             tmp_path / "t.csv", tmp_path / "t.md",
+                             formats={"x": "g"})
+    assert "| 1.5 | - | 1.23e-07 |" in md
+    assert _read_csv(tmp_path / "t.csv") == [{"x": "1.5", "y": "", "z": "1.23456e-07"}]
