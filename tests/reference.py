@@ -188,7 +188,10 @@ def dop853_solve(alpha, beta, gamma, gtilde, rtol=1e-13, atol=1e-15, rest_tol=1e
     3. until u = 0 downward (detach) or v = 0 upward (stick if u > 0 there).
 
     In every phase max(|u - u-bar|, |v|) < rest_tol ends the run with e = 0 (at rest), and
-    tau > t_max with status BUDGET_EXHAUSTED (e = NaN).
+    tau > t_max with status BUDGET_EXHAUSTED (e = NaN). The energy
+    H = v^2/2 + u_+^(alpha+1)/(alpha+1) - g~ u never increases and equals e^2/2 >= 0 at a
+    detachment, so H < -1e-12 (1 + g~ u) also ends a run: STUCK, e = 0. That decides
+    overdamped points quickly instead of following their creep to rest.
 
     Grazing (SPEC section 7): solve_ivp sees an event only where its function changes sign
     between step ends, so a dip of u below 0 inside one step would be missed. In phase 3
@@ -234,6 +237,13 @@ def dop853_solve(alpha, beta, gamma, gtilde, rtol=1e-13, atol=1e-15, rest_tol=1e
     ev_u0 = _event(lambda t, y: y[0], -1)
     ev_rest = _event(lambda t, y: max(abs(y[0] - ubar), abs(vel(y))) - rest_tol, -1)
 
+    def energy_margin(t, y):
+        u = y[0] if y[0] > 0.0 else 0.0
+        v = vel(y)
+        return 0.5 * v * v + u ** (a + 1.0) / (a + 1.0) - G * u + 1e-12 * (1.0 + G * u)
+
+    ev_sunk = _event(energy_margin, -1)
+
     out = dict(status=None, e=math.nan, e_w=math.nan, e_D=math.nan, t_f=math.nan,
                u_max=math.nan, u_min=math.nan, nfev=0, refinements=0)
 
@@ -257,30 +267,36 @@ def dop853_solve(alpha, beta, gamma, gtilde, rtol=1e-13, atol=1e-15, rest_tol=1e
         return out
 
     # Phase 1: maximum compression.
-    k, t, y, _ = run(0.0, [0.0, 1.0, 0.0], [ev_vdown, ev_rest])
+    k, t, y, _ = run(0.0, [0.0, 1.0, 0.0], [ev_vdown, ev_rest, ev_sunk])
     if k is None:
         return finish(BUDGET_EXHAUSTED, t, y)
     if k == 1:
         return finish(AT_REST, t, y)
+    if k == 2:
+        return finish(STUCK, t, y)
     out["u_max"] = y[0]
 
     # Phase 2: down to the equilibrium compression (g~ = 0: to the floor).
-    k, t, y, sol = run(t, y, [ev_ubar, ev_rest])
+    k, t, y, sol = run(t, y, [ev_ubar, ev_rest, ev_sunk])
     if k is None:
         return finish(BUDGET_EXHAUSTED, t, y)
     if k == 1:
         return finish(AT_REST, t, y)
+    if k == 2:
+        return finish(STUCK, t, y)
 
     if G > 0.0:
         # Phase 3: first of u = 0 (detach) and v = 0 (trough).
         t3, y3 = t, y
         max_step = np.inf
         while True:
-            k, t, y, sol = run(t3, y3, [ev_u0, ev_vup, ev_rest], max_step=max_step)
+            k, t, y, sol = run(t3, y3, [ev_u0, ev_vup, ev_rest, ev_sunk], max_step=max_step)
             if k is None:
                 return finish(BUDGET_EXHAUSTED, t, y)
             if k == 2:
                 return finish(AT_REST, t, y)
+            if k == 3:
+                return finish(STUCK, t, y)
             if k == 1:
                 out["u_min"] = y[0]
                 if y[0] > 0.0:
