@@ -9,6 +9,14 @@ beta) of the dataset. Drawn over it:
   its triangulation (scattered designs);
 * the report's approximate boundary (24), ``g~_c = (1 / (2 gamma C))^(1/r)``.
 
+A design that samples the exponents (more than :data:`MAX_MODELS` distinct (alpha, beta)
+pairs, e.g. a Sobol' design) gets one panel per (alpha, beta) bin instead (split at the
+medians), drawn as hexagonal bins holding the *largest* error of their points; the two
+boundaries are then those of the bin's median model (the numerical one by
+:func:`sweep.critical.critical_gtilde`, since points of different exponents do not make one
+stick/rebound curve). Table rows are per bin as well, with each point's region decided by
+its own (24).
+
 Zero errors (both the approximation and the numerical CoR are 0, deep in the stick region)
 are drawn white, points where the error is undefined (an approximation outside its domain,
 such as "sp" away from KK, or a point whose numerical CoR is not converged) light grey.
@@ -40,8 +48,8 @@ import numpy as np
 from sweep.model import Status
 from sweep.reports import use_agg, write_table
 
-__all__ = ["accuracy_report", "load_errors", "region_masks", "region_table", "REGIONS",
-           "critical_gtilde_24"]
+__all__ = ["accuracy_report", "load_errors", "model_groups", "region_masks", "region_table",
+           "REGIONS", "critical_gtilde_24", "MAX_MODELS"]
 
 REGIONS = ("all", "rebound", "stick", "rebound, gamma <= 0.01, g~ <= g~_c/2",
            "rebound, 0.01 < gamma <= 0.1, g~ <= g~_c/2", "rebound, gamma > 0.1, g~ <= g~_c/2",
@@ -122,11 +130,54 @@ def load_errors(ds):
     return out
 
 
-def region_masks(data, alpha, beta):
-    """Boolean masks of :data:`REGIONS` for the points of model (alpha, beta)."""
-    model = (data["alpha"] == alpha) & (data["beta"] == beta) & data["decided"]
+#: More distinct (alpha, beta) pairs than this (a design sampling the exponents): panels
+#: and table rows are per (alpha, beta) bin instead, split at the medians.
+MAX_MODELS = 6
+
+
+def model_groups(data):
+    """The panels / table groups of a dataset: one per contact model, or per exponent bin.
+
+    Returns
+    -------
+    list of dict
+        ``alpha``, ``beta`` (the value, or a ``"[lo, hi]"`` range string for a bin),
+        ``mask`` (points of the group), ``exact`` (a single model), ``a_rep``, ``b_rep``
+        (the model, or the bin's medians, at which boundary curves are drawn).
+    """
+    a, b = data["alpha"], data["beta"]
+    pairs = sorted(set(zip(a.tolist(), b.tolist())))
+    if len(pairs) <= MAX_MODELS:
+        return [{"alpha": pa, "beta": pb, "mask": (a == pa) & (b == pb), "exact": True,
+                 "a_rep": pa, "b_rep": pb} for pa, pb in pairs]
+
+    def halves(x):
+        lo, hi = float(x.min()), float(x.max())
+        if lo == hi:
+            return [(np.ones(x.size, bool), f"{lo:g}", lo)]
+        med = float(np.median(x))
+        low = x <= med
+        return [(low, f"[{lo:.3g}, {med:.3g}]", float(np.median(x[low]))),
+                (~low, f"({med:.3g}, {hi:.3g}]", float(np.median(x[~low])))]
+
+    groups = []
+    for ma, la, ra in halves(a):
+        for mb, lb, rb in halves(b):
+            if (ma & mb).any():
+                groups.append({"alpha": la, "beta": lb, "mask": ma & mb, "exact": False,
+                               "a_rep": float(np.median(a[ma & mb])),
+                               "b_rep": float(np.median(b[ma & mb]))})
+    return groups
+
+
+def region_masks(data, group_mask):
+    """Boolean masks of :data:`REGIONS` for the points of one group.
+
+    The boundary (24) is evaluated at each point's own (alpha, beta).
+    """
+    model = group_mask & data["decided"]
     sticks = data["sticks"]
-    gc = critical_gtilde_24(alpha, beta, data["gamma"])
+    gc = critical_gtilde_24(data["alpha"], data["beta"], data["gamma"])
     near = data["gtilde"] > 0.5 * gc
     far = model & ~sticks & ~near
     g = data["gamma"]
@@ -141,23 +192,22 @@ def region_masks(data, alpha, beta):
     }
 
 
-def region_table(data):
-    """Rows (dicts) of max / median abs error per method, model and region."""
+def region_table(data, groups=None):
+    """Rows (dicts) of max / median abs error per method, model (or bin) and region."""
     rows = []
-    models = sorted(set(zip(data["alpha"].tolist(), data["beta"].tolist())))
+    groups = model_groups(data) if groups is None else groups
     for m in data["methods"]:
         err = data["errors"][m]
-        for a, b in models:
-            in_model = (data["alpha"] == a) & (data["beta"] == b)
-            excluded = int(np.count_nonzero(in_model & ~data["decided"]))
-            for region, mask in region_masks(data, a, b).items():
+        for grp in groups:
+            excluded = int(np.count_nonzero(grp["mask"] & ~data["decided"]))
+            for region, mask in region_masks(data, grp["mask"]).items():
                 e = err[mask]
                 finite = np.isfinite(e)
-                row = {"method": m, "alpha": a, "beta": b, "region": region,
-                       "n_points": int(mask.sum()), "n_undefined": int((~finite).sum()),
-                       "excluded": excluded, "max_abs_error": None,
-                       "median_abs_error": None, "gamma_at_max": None,
-                       "gtilde_at_max": None}
+                row = {"method": m, "alpha": grp["alpha"], "beta": grp["beta"],
+                       "region": region, "n_points": int(mask.sum()),
+                       "n_undefined": int((~finite).sum()), "excluded": excluded,
+                       "max_abs_error": None, "median_abs_error": None,
+                       "gamma_at_max": None, "gtilde_at_max": None}
                 if finite.any():
                     idx = np.flatnonzero(mask)[finite]
                     k = idx[np.argmax(err[idx])]
@@ -180,22 +230,31 @@ def _edges(v):
                                   [lv[-1] + (lv[-1] - mid[-1])]]))
 
 
-def _panel(ax, data, err, a, b, norm, cmap):
-    """Draw one model's map; returns the mappable (or None if nothing to draw)."""
-    sel = ((data["alpha"] == a) & (data["beta"] == b) & (data["gamma"] > 0)
-           & (data["gtilde"] > 0))
+#: Above this many points in a scattered panel, draw hexagonal bins (max per cell).
+HEXBIN_ABOVE = 5000
+
+
+def _nanmax(v):
+    v = np.asarray(v, dtype=float)
+    v = v[np.isfinite(v)]
+    return v.max() if v.size else np.nan
+
+
+def _panel(ax, data, err, grp, norm, cmap):
+    """Draw one group's map; returns the mappable (or None if nothing to draw)."""
+    sel = grp["mask"] & (data["gamma"] > 0) & (data["gtilde"] > 0)
     g, G = data["gamma"][sel], data["gtilde"][sel]
     z = err[sel].copy()
     sticks = data["sticks"][sel]
-    floor = norm.vmin
-    z = np.where(z == 0.0, floor * 1e-3, z)      # exact zeros: the "under" colour
+    a, b = grp["a_rep"], grp["b_rep"]
+    z = np.where(z == 0.0, norm.vmin * 1e-3, z)      # exact zeros: the "under" colour
     if g.size == 0:
         ax.text(0.5, 0.5, "no point with gamma > 0 and g~ > 0", ha="center",
                 transform=ax.transAxes)
         return None
     gu, Gu = np.unique(g), np.unique(G)
-    mappable = None
-    if gu.size * Gu.size == g.size:               # a full grid over (gamma, g~)
+    grid = gu.size * Gu.size == g.size
+    if grid:                                          # a full grid over (gamma, g~)
         i = np.searchsorted(gu, g)
         j = np.searchsorted(Gu, G)
         Z = np.full((Gu.size, gu.size), np.nan)
@@ -204,12 +263,19 @@ def _panel(ax, data, err, a, b, norm, cmap):
         S[j, i] = sticks
         mappable = ax.pcolormesh(_edges(gu), _edges(Gu), np.ma.masked_invalid(Z), norm=norm,
                                  cmap=cmap, shading="flat")
-        if gu.size > 1 and Gu.size > 1 and 0 < S.sum() < S.size:
+        if grp["exact"] and gu.size > 1 and Gu.size > 1 and 0 < S.sum() < S.size:
             ax.contour(gu, Gu, S, levels=[0.5], colors="k", linewidths=1.2)
+        xlim = (_edges(gu)[0], _edges(gu)[-1])
+        ylim = (_edges(Gu)[0], _edges(Gu)[-1])
     else:
-        mappable = ax.scatter(g, G, c=z, norm=norm, cmap=cmap, s=8,
-                              edgecolors="none", plotnonfinite=True)
-        if g.size >= 3 and 0 < sticks.sum() < sticks.size:
+        if g.size > HEXBIN_ABOVE:
+            mappable = ax.hexbin(g, G, C=z, xscale="log", yscale="log", gridsize=(70, 45),
+                                 reduce_C_function=_nanmax, norm=norm, cmap=cmap,
+                                 linewidths=0.0)
+        else:
+            mappable = ax.scatter(g, G, c=z, norm=norm, cmap=cmap, s=8, edgecolors="none",
+                                  plotnonfinite=True)
+        if grp["exact"] and g.size >= 3 and 0 < sticks.sum() < sticks.size:
             try:
                 import matplotlib.tri as mtri
 
@@ -222,21 +288,32 @@ def _panel(ax, data, err, a, b, norm, cmap):
                               linewidths=1.2)
             except Exception:  # pragma: no cover - degenerate triangulations
                 pass
+        xlim = (g.min(), g.max())
+        ylim = (G.min(), G.max())
     ax.set_xscale("log")
     ax.set_yscale("log")
-    xlim = (_edges(gu)[0], _edges(gu)[-1])
-    ylim = (_edges(Gu)[0], _edges(Gu)[-1])
     gg = np.geomspace(*xlim, 200)
     ax.plot(gg, critical_gtilde_24(a, b, gg), "r--", lw=1.2)
+    if not grp["exact"]:
+        # mixed exponents: the points' own stick decisions do not make one curve; draw
+        # the numerical boundary of the bin's median model instead
+        from sweep.critical import critical_gtilde
+
+        gn = np.geomspace(*xlim, 40)
+        ax.plot(gn, critical_gtilde(a, b, gn, method="numeric"), "k-", lw=1.2)
     ax.set_xlim(*xlim)
     ax.set_ylim(*ylim)
     ax.set_xlabel(r"$\gamma$")
     ax.set_ylabel(r"$\tilde g$")
-    ax.set_title(rf"$\alpha={a:g}$, $\beta={b:g}$")
+    if grp["exact"]:
+        ax.set_title(rf"$\alpha={a:g}$, $\beta={b:g}$")
+    else:
+        ax.set_title(f"alpha in {grp['alpha']}, beta in {grp['beta']}\n(curves at the "
+                     f"medians alpha = {a:.3g}, beta = {b:.3g})", fontsize=9)
     return mappable
 
 
-def _plot_method(path, data, m, models, title):
+def _plot_method(path, data, m, groups, title):
     plt = use_agg()
     from matplotlib.colors import LogNorm
     from matplotlib.lines import Line2D
@@ -250,18 +327,23 @@ def _plot_method(path, data, m, models, title):
         vmin = vmax / 10.0
     norm = LogNorm(vmin=vmin, vmax=vmax)
     cmap = plt.get_cmap("viridis").with_extremes(under="white", bad="lightgrey")
-    n = len(models)
+    n = len(groups)
     ncol = min(n, 2)
     nrow = -(-n // ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(5.8 * ncol, 4.6 * nrow), squeeze=False,
-                             constrained_layout=True)
+    width, height = 5.6 * ncol + 1.4, 4.4 * nrow + 0.9
+    fig, axes = plt.subplots(nrow, ncol, figsize=(width, height), squeeze=False)
+    # a fixed layout: constrained layout costs seconds per figure with log axes
+    fig.subplots_adjust(left=0.75 / width, right=1 - 1.45 / width, bottom=0.6 / height,
+                        top=1 - 1.0 / height, wspace=0.28, hspace=0.45)
     mappable = None
-    for ax, (a, b) in zip(axes.flat, models):
-        mappable = _panel(ax, data, err, a, b, norm, cmap) or mappable
+    for ax, grp in zip(axes.flat, groups):
+        mappable = _panel(ax, data, err, grp, norm, cmap) or mappable
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
     if mappable is not None:
-        cb = fig.colorbar(mappable, ax=axes, extend="min", shrink=0.9)
+        cax = fig.add_axes([1 - 1.2 / width, 0.6 / height + 0.05, 0.18 / width,
+                            1 - 1.6 / height - 0.1])
+        cb = fig.colorbar(mappable, cax=cax, extend="min")
         cb.set_label(f"|e({m}) - e(numeric)|")
     handles = [Line2D([], [], color="k", lw=1.2, label="numerical stick/rebound boundary"),
                Line2D([], [], color="r", ls="--", lw=1.2, label=r"report's $\tilde g_c$ (24)")]
@@ -303,13 +385,13 @@ def accuracy_report(path, out=None, *, methods=None):
             raise ValueError(f"methods {unknown} are not in the dataset "
                              f"(it has {data['methods']})")
         data["methods"] = list(methods)
-    models = sorted(set(zip(data["alpha"].tolist(), data["beta"].tolist())))
+    groups = model_groups(data)
     files = []
     for m in data["methods"]:
         f = out / f"accuracy_{m}.png"
-        _plot_method(f, data, m, models, title)
+        _plot_method(f, data, m, groups, title)
         files.append(f)
-    rows = region_table(data)
+    rows = region_table(data, groups)
     cols = ["method", "alpha", "beta", "region", "n_points", "n_undefined", "excluded",
             "max_abs_error", "median_abs_error", "gamma_at_max", "gtilde_at_max"]
     notes = [f"dataset: {path.name} ({title})",

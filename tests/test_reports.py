@@ -167,6 +167,39 @@ def test_accuracy_report_scattered(tmp_path):
         assert rows[("sp", bb, "all")]["max_abs_error"] is None
 
 
+def test_accuracy_report_binned_exponents(tmp_path):
+    """A design sampling the exponents: panels and rows per (alpha, beta) bin, hexbins."""
+    from sweep import reports_accuracy as ra
+
+    rng = np.random.default_rng(1)
+    n = ra.HEXBIN_ABOVE * 4 + 400                    # > HEXBIN_ABOVE points per bin
+    a = rng.uniform(1.0, 3.0, n)
+    b = rng.uniform(1.0, 3.0, n)
+    g = 10 ** rng.uniform(-4, 0, n)
+    G = rng.uniform(0.0, 10.0, n)
+    e_num = rng.uniform(0.0, 1.0, n) * (G < 5)       # synthetic values: the table is
+    err = 10.0 ** rng.uniform(-9, -1, n)             # a function of the data only
+    ds = xr.Dataset({"e_numeric": ("point", e_num), "error_ord1": ("point", err)},
+                    coords={"alpha": ("point", a), "beta": ("point", b),
+                            "gamma": ("point", g), "gtilde": ("point", G)})
+    path = tmp_path / "doe.nc"
+    ds.to_netcdf(path)
+    res = accuracy_report(path, tmp_path / "doe")
+    assert _is_png(tmp_path / "doe" / "accuracy_ord1.png")
+    rows = [r for r in res["rows"] if r["region"] == "all"]
+    assert len(rows) == 4                             # 2 alpha bins x 2 beta bins
+    ma, mb = np.median(a), np.median(b)
+    for r in rows:
+        sel_a = a <= ma if r["alpha"].startswith("[") else a > ma
+        sel_b = b <= mb if r["beta"].startswith("[") else b > mb
+        sel = sel_a & sel_b
+        assert r["n_points"] == sel.sum()
+        assert r["max_abs_error"] == err[sel].max()
+        assert r["median_abs_error"] == np.median(err[sel])
+    stick = [r for r in res["rows"] if r["region"] == "stick"]
+    assert sum(r["n_points"] for r in stick) == np.count_nonzero(e_num == 0)
+
+
 def test_accuracy_report_needs_errors(tmp_path):
     ds = xr.Dataset({"e_numeric": ("point", np.ones(3))},
                     coords={p: ("point", np.ones(3)) for p in ("alpha", "beta", "gamma",
