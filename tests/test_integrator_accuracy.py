@@ -7,12 +7,15 @@ Acceptance (tracker issue 2): max abs error of e <= 1e-9 against
 * DOP853 (tests/reference.py) for KK, SHC, Hertz + linear damping, and a few extreme
   exponents, over gamma in [1e-6, 1] and g~ in [0, 100].
 
-Error measure. Near the stick/rebound boundary e behaves like the square root of the dip
-depth of u below 0 (SPEC 7), so its condition number grows like 1/e and no finite-precision
-march reaches 1e-9 there (at g~ = 100 the states are O(100) and rounding alone is ~1e-14 of
-that). Below e = 0.5 the tests therefore hold the *rebound energy* to the same standard:
-|e - e_ref| <= 1e-9 * max(1, 0.5/e_ref), i.e. |e^2 - e_ref^2| <~ 1e-9. The references' own
-errors are below 2e-11 on these grids (tests/test_references.py), so they need no extra room.
+Error measure. Under a load (g~ > 0), near the stick/rebound boundary e behaves like the
+square root of the dip depth of u below 0 (SPEC 7): its condition number grows like 1/e and
+a fixed absolute target stops being meaningful (at g~ = 100 the states are O(100), and
+rounding alone moves e by ~1e-12/e). Below e = 0.5 such points are held to the same standard
+on the *rebound energy*: |e - e_ref| <= 1e-9 * max(1, 0.5/e_ref), i.e. |e^2 - e_ref^2| <~ 1e-9.
+At g~ = 0 there is no grazing and the plain 1e-9 applies down to e ~ 1e-4. The references'
+own errors (tests/test_references.py: <= 2e-11 against the closed forms; DOP853's energy form
+confirmed by the Prop. 2 expansion and by this integrator at 4-8x its default resolution)
+need no extra room.
 
 Run ``python tests/test_integrator_accuracy.py`` for the per-case error table.
 """
@@ -36,9 +39,11 @@ EXTREME = {"a5b5": (5.0, 5.0), "a1b5": (1.0, 5.0), "a5b1": (5.0, 1.0), "a2b3": (
 N_GAMMA = 12
 
 
-def tolerance(e_ref):
-    """1e-9 on e, relaxed to 1e-9 on ~e^2 below e = 0.5 (module docstring)."""
-    return TOL * max(1.0, 0.5 / e_ref) if e_ref > 0 else 0.0
+def tolerance(e_ref, gtilde):
+    """1e-9 on e; under a load relaxed to 1e-9 on ~e^2 below e = 0.5 (module docstring)."""
+    if e_ref <= 0:
+        return 0.0
+    return TOL * max(1.0, 0.5 / e_ref) if gtilde > 0 else TOL
 
 
 def gamma_crit_estimate(alpha, beta, gtilde):
@@ -84,7 +89,7 @@ def case(name, gtilde):
 def error_row(name, gtilde):
     gam, e_ref, sticks_ref, res = case(name, gtilde)
     err = np.abs(res.e - e_ref)
-    scaled = np.array([d / tolerance(r) if r > 0 else (0.0 if d == 0 else np.inf)
+    scaled = np.array([d / tolerance(r, gtilde) if r > 0 else (0.0 if d == 0 else np.inf)
                        for d, r in zip(err, e_ref)])
     i = int(np.argmax(err))
     j = int(np.argmax(scaled))
@@ -98,7 +103,7 @@ def _check(name, gtilde):
     gam, e_ref, sticks_ref, res = case(name, gtilde)
     assert np.all(np.isfinite(res.e))
     bad = [(g, r, e, s) for g, r, e, s in zip(gam, e_ref, res.e, res.status)
-           if not abs(e - r) <= tolerance(r)]
+           if not abs(e - r) <= tolerance(r, gtilde)]
     assert not bad, f"{name} g~={gtilde}: (gamma, e_ref, e, status) beyond tolerance: {bad}"
     np.testing.assert_array_equal(res.sticks, sticks_ref, err_msg=f"{name} g~={gtilde}")
 
@@ -150,14 +155,16 @@ ALL_EXPONENTS = [(1.0, 1.0), (1.5, 1.0), (1.5, 1.25), (1.5, 1.5), (1.5, 2.5), (5
                  (1.0, 5.0), (5.0, 1.0), (2.0, 3.0)]
 
 
-@pytest.mark.parametrize("gtilde", [
-    0.0, 1.0, 100.0,
-    pytest.param(1e4, marks=pytest.mark.xfail(strict=True, reason=(
-        "e = -v(T_f) inherits the exit-time error times u'' = g~: at gamma = 0, g~ = 1e4 the "
-        "linear model gives 1 - 1.9e-8, g~ = 1e6 gives 1.00018 (> 1); e^2 = 1 - 2 gamma beta "
-        "D (energy identity) would give 1 exactly"))),
-    pytest.param(1e6, marks=pytest.mark.xfail(strict=True, reason="as g~ = 1e4")),
-])
+_EXIT_ERROR = pytest.mark.xfail(strict=True, reason=(
+    "e = -v(T_f) inherits the exit-time error times u'' = g~ (and rounding of states of size "
+    "g~): at gamma = 0 the linear model gives e - 1 = +2.2e-9, -5.9e-8, +2.3e-3 at g~ = 1e3, "
+    "1e4, 1e6 (e > 1 is unphysical); e^2 = 1 - 2 gamma beta int u^(beta-1) v^2 (energy "
+    "identity, tests/reference.py) gives 1 exactly"))
+
+
+@pytest.mark.parametrize("gtilde", [0.0, 1.0, 100.0, pytest.param(1e3, marks=_EXIT_ERROR),
+                                    pytest.param(1e4, marks=_EXIT_ERROR),
+                                    pytest.param(1e6, marks=_EXIT_ERROR)])
 def test_zero_damping_rebounds_elastically(gtilde):
     a, b = np.array(ALL_EXPONENTS).T
     res = sweep.integrate(a, b, 0.0, gtilde)
@@ -171,7 +178,7 @@ def test_tiny_damping_against_dop853():
             ref = dop853_cor(a, b, 1e-8, gtilde)
             res = sweep.integrate(a, b, 1e-8, gtilde)
             assert res.sticks == ref.sticks, (a, b, gtilde)
-            assert abs(res.e - ref.e) <= tolerance(ref.e), (a, b, gtilde, res.e, ref.e)
+            assert abs(res.e - ref.e) <= tolerance(ref.e, gtilde), (a, b, gtilde, res.e, ref.e)
 
 
 def test_heavy_damping_and_huge_loads_end_sensibly():
@@ -237,7 +244,7 @@ def test_stick_rebound_boundary(name, gtilde):
     assert np.all(res.status[25:] == Status.STUCK)
     for g, e in zip(gam[:25:6], res.e[:25:6]):
         er = ref_e(g)
-        assert abs(e - er) <= tolerance(er), (g, e, er)
+        assert abs(e - er) <= tolerance(er, gtilde), (g, e, er)
 
 
 # --- determinism and invalid points ----------------------------------------------------------
