@@ -59,7 +59,13 @@ def speed_report(out="speed_report", **kwargs):
 # --------------------------------------------------------------------------- command line
 
 def _cmd_accuracy(args):
-    res = accuracy_report(args.dataset, args.out)
+    import sys
+
+    try:
+        res = accuracy_report(args.dataset, args.out)
+    except (OSError, ValueError) as exc:
+        print(f"sweep report accuracy: error: {args.dataset}: {exc}", file=sys.stderr)
+        return 1
     print(f"accuracy report of {args.dataset}: {len(res['files'])} files in {res['out']}")
     for f in res["files"]:
         print(f"  {f}")

@@ -372,6 +372,8 @@ def test_add_report_commands(grid_dataset, tmp_path):
                               str(tmp_path / "cli")])
     assert args.func(args) == 0
     assert (tmp_path / "cli" / "accuracy.md").exists()
+    args = parser.parse_args(["report", "accuracy", str(tmp_path / "missing.nc")])
+    assert args.func(args) == 1
 
 
 def test_import_sweep_does_not_import_matplotlib():
