@@ -203,8 +203,10 @@ def dop853_solve(alpha, beta, gamma, gtilde, rtol=1e-13, atol=1e-15, rest_tol=1e
     Precision at the exit: after the detachment is found, the last stretch (from the last
     accepted step end, where u > 0 and v < 0) is integrated again with u as the independent
     variable, d(tau, w, D)/du = (1/v, (g~ - u^alpha)/v, u^(beta-1) v), from u_a exactly to
-    u = 0. That avoids both event location and stepping across the kink at u = 0 (v is
-    monotone and nonzero there, see the module notes). Two CoR values come out:
+    u = 0. That avoids both event location and stepping across the kink at u = 0. v stays
+    negative on that stretch: in phase 3 (u < u-bar, v < 0) v' = g~ - u^alpha -
+    gamma beta u^(beta-1) v > 0, so v rises monotonically to -e; at g~ = 0 v' = -u^alpha < 0
+    wherever v = 0, so v cannot reach 0 from below. Two CoR values come out:
 
     * ``e_w = -w(T_f)`` (the report's definition (3)),
     * ``e_D = sqrt(1 - 2 gamma beta D)`` (energy identity, module docstring),
