@@ -19,23 +19,27 @@ velocity's sign change: the minimum of u at ``v = 0`` decides between sticking a
 Two extra stopping rules keep every point bounded:
 
 * rest: ``max(|u - u-bar|, |v|) < rest_tol`` -> ``e = 0``, status AT_REST (report, Sec. 3);
-* energy: ``H = v^2/2 + u_+^(alpha+1)/(alpha+1) - g~ u`` never increases
-  (``dH/dtau = -gamma beta u^(beta-1) v^2``) and equals ``e^2/2 >= 0`` at a detachment, so
-  once ``H < 0`` (beyond roundoff) the bead can never leave the floor: ``e = 0``, status STUCK.
+* energy: ``H = v^2/2 + u_+^(alpha+1)/(alpha+1) - g~ u = 1/2 - q`` never increases
+  (q, the energy dissipated by the damper, is carried along, see :func:`sweep.stepper.rhs`)
+  and equals ``e^2/2 >= 0`` at a detachment, so once ``q > 1/2`` (beyond roundoff) the bead
+  can never leave the floor: ``e = 0``, status STUCK.
   This is what ends overdamped points that creep towards u-bar. It is applied from phase 2 on,
   and in phase 1 only when the linearisation about u-bar is overdamped (``xi >= 1``), where
   phase 1 may never end; such points report ``u_max = NaN`` (maximum not reached).
 
-A point that exhausts ``max_steps`` stops with status BUDGET_EXHAUSTED and ``e = sqrt(2 H)``:
+At detachment e is ``sqrt(1 - 2 q)`` or ``-v``, whichever is better conditioned (see
+:func:`_cor_at_exit`). A point that exhausts ``max_steps`` stops with status BUDGET_EXHAUSTED
+and ``e = sqrt(2 H) = sqrt(1 - 2 q)``:
 the energy still available bounds the rebound speed, so this is an upper bound of the CoR
 (tiny for the slow creep back to u = 0 of heavily damped points at g~ = 0), not a converged
 value.
 
-Conditioning: e is what is left of the energy after the bead swings through a potential well
-of depth ``|V(u-bar)| ~ g~^(1 + 1/alpha)``, so roundoff alone limits its absolute accuracy to
-about ``eps |V(u-bar)| sqrt(n_steps) / e`` -- 1e-3 at g~ = 1e6 for the linear law, for any
-double-precision integrator. Near the stick/rebound boundary e ~ sqrt(dip depth) amplifies
-every absolute error by about 1/e.
+The linear law at g~ = 0 with gamma >= 2 (overdamped) is decided by its closed form: the bead
+only creeps back towards u = 0, exponentially slowly, and never leaves (AT_REST, e = 0,
+``t_f = inf``, exact ``u_max``).
+
+Conditioning: near the stick/rebound boundary e ~ sqrt(dip depth) amplifies every absolute
+error by about 1/e.
 """
 from __future__ import annotations
 
@@ -66,27 +70,51 @@ _AT_REST = int(Status.AT_REST)
 _BUDGET = int(Status.BUDGET_EXHAUSTED)
 _INVALID = int(Status.INVALID)
 
-# Relative size of roundoff in the energy H: the stuck rule waits until H is below it.
-_ENERGY_ROUNDOFF = 1e-13
+# Relative roundoff in the dissipated energy q (a sum of positive terms): the stuck rule
+# waits until q exceeds the initial energy 1/2 by more than it.
+_ENERGY_ROUNDOFF = 1e-12
 
 
 @nb.njit(inline="always")
-def _restep(u, w, d, K, K2, alpha, beta, gamma, gtilde, ka, kb):
+def _restep(u, w, r, d, K, K2, alpha, beta, gamma, gtilde, ka, kd):
     """State at time ``d`` after the step's start, by one Runge-Kutta step of size ``d``."""
     K2[0, 0] = K[0, 0]
     K2[0, 1] = K[0, 1]
-    return rk_step(u, w, d, K2, alpha, beta, gamma, gtilde, ka, kb)
+    K2[0, 2] = K[0, 2]
+    return rk_step(u, w, r, d, K2, alpha, beta, gamma, gtilde, ka, kd)
 
 
 @nb.njit(inline="always")
-def _accel(u, v, alpha, beta, gamma, gtilde, ka, kb):
+def _accel(u, v, alpha, beta, gamma, gtilde, ka, kd):
     """``dv/dtau = g~ - u^alpha - gamma beta u^(beta-1) v`` for u >= 0."""
-    return gtilde - ppow(u, alpha, ka) - gamma * beta * ppow(u, beta - 1.0, power_kind(beta - 1.0)) * v
+    return gtilde - ppow(u, alpha, ka) - gamma * beta * ppow(u, beta - 1.0, kd) * v
+
+
+@nb.njit(inline="always")
+def _dissipated(u, v, r, beta, gamma, kb):
+    """Energy dissipated so far, ``q = gamma v u_+^beta + r`` (see :func:`sweep.stepper.rhs`)."""
+    return gamma * v * ppow(u, beta, kb) + r
+
+
+@nb.njit(inline="always")
+def _cor_at_exit(q, v, swing2):
+    """CoR at detachment from the better conditioned of two equal expressions.
+
+    ``e = sqrt(1 - 2 q)`` (energy balance, q the dissipated energy) inherits the relative
+    error of q: about ``eps_rel / (2 e)`` in e. ``e = -v`` inherits the error of the velocity, which is relative
+    to the largest speed of the swing, ``sqrt(swing2)`` with ``swing2 = 1 + 2 |V(u-bar)|``:
+    about ``eps_rel sqrt(swing2)``. The balance wins unless e is small and the well shallow
+    (heavy damping at small load).
+    """
+    left = 1.0 - 2.0 * q
+    if left > 0.0 and 4.0 * left * swing2 >= 1.0:
+        return math.sqrt(left)
+    return max(-v, 0.0)
 
 
 @nb.njit
-def _detach(u, w, s, th_lo, th_hi, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb):
-    """Refine the detachment u = 0 inside ``[th_lo, th_hi]`` of the step from ``(u, w)``.
+def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb, kd, swing2):
+    """Refine the detachment u = 0 inside ``[th_lo, th_hi]`` of the step from ``(u, w, r)``.
 
     Returns ``(time from the step's start, e, re-steps used)``.
     """
@@ -97,8 +125,9 @@ def _detach(u, w, s, th_lo, th_hi, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb)
     used = 0
     ue = 0.0
     ve = -1.0
+    r_e = r
     for _ in range(12):
-        ue, we = _restep(u, w, d, K, K2, alpha, beta, gamma, gtilde, ka, kb)
+        ue, we, r_e = _restep(u, w, r, d, K, K2, alpha, beta, gamma, gtilde, ka, kd)
         used += 1
         ve = we - gamma * ppow(ue, beta, kb)
         if ue > 0.0:
@@ -112,25 +141,46 @@ def _detach(u, w, s, th_lo, th_hi, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb)
             d = dn
             break
         d = dn
-    # The last Newton correction is O(u_e) and within roundoff; apply it to v to first order.
+    # The last Newton correction is O(u_e), within roundoff; apply it to first order.
     delta = -ue / ve if ve < 0.0 else 0.0
     v_f = ve + delta * (gtilde - ppow(ue, alpha, ka))
-    return d, max(-v_f, 0.0), used
+    q_f = _dissipated(ue, ve, r_e, beta, gamma, kb) + delta * gamma * beta * ppow(ue, beta - 1.0, kd) * ve * ve
+    return d, _cor_at_exit(q_f, v_f, swing2), used
+
+
+@nb.njit(inline="always")
+def _linear_overdamped_g0(gamma):
+    """alpha = beta = 1, g~ = 0, gamma >= 2: u > 0 for ever (no rebound); returns u_max.
+
+    u = (exp(l1 t) - exp(l2 t)) / (l1 - l2) with l1,2 = -gamma/2 +- sqrt(gamma^2/4 - 1),
+    maximal where l1 exp(l1 t) = l2 exp(l2 t); t exp(-t) (maximum 1/e) at gamma = 2.
+    """
+    r = math.sqrt(max(0.25 * gamma * gamma - 1.0, 0.0))
+    if r == 0.0:
+        return math.exp(-1.0)
+    l1 = -0.5 * gamma + r
+    l2 = -0.5 * gamma - r
+    t = math.log(l2 / l1) / (l1 - l2)
+    return (math.exp(l1 * t) - math.exp(l2 * t)) / (l1 - l2)
 
 
 @nb.njit
 def integrate_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, K, K2, Q):
     """Numerical CoR of one point; returns ``(e, t_f, u_max, n_steps, status)``.
 
-    ``K``, ``K2`` (stages, shape (s, 2)) and ``Q`` (dense output, shape (2, q)) are scratch.
+    ``K``, ``K2`` (stages, shape (s, 3)) and ``Q`` (dense output, shape (2, q)) are scratch.
     """
     nan = np.nan
     if not (alpha >= 1.0 and beta >= 1.0 and gamma >= 0.0 and gtilde >= 0.0
             and math.isfinite(alpha) and math.isfinite(beta)
             and math.isfinite(gamma) and math.isfinite(gtilde)):
         return nan, nan, nan, 0, _INVALID
+    if alpha == 1.0 and beta == 1.0 and gtilde == 0.0 and gamma >= 2.0:
+        # Decided by the closed form: the march would only creep towards rest, exponentially slowly.
+        return 0.0, math.inf, _linear_overdamped_g0(gamma), 0, _AT_REST
     ka = power_kind(alpha)
     kb = power_kind(beta)
+    kd = power_kind(beta - 1.0)
     ubar = gtilde ** (1.0 / alpha) if gtilde > 0.0 else 0.0
     h = base_step(alpha, gtilde, steps)
     capped = damping_limited(alpha, beta, gamma, gtilde)
@@ -139,25 +189,29 @@ def integrate_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, K, K
     xi = gamma * beta / (2.0 * math.sqrt(alpha)) * gtilde ** ((2.0 * beta - alpha - 1.0) / (2.0 * alpha)) \
         if gtilde > 0.0 else 0.0
     energy_in_phase1 = xi >= 1.0
-    ap1 = alpha + 1.0
+    q_stuck = 0.5 * (1.0 + _ENERGY_ROUNDOFF)
+    swing2 = 1.0 + 2.0 * gtilde * ubar * alpha / (alpha + 1.0)
 
     t = 0.0
     u = 0.0
     w = 1.0
-    fu, fw = rhs(u, w, alpha, beta, gamma, gtilde, ka, kb)
+    r = 0.0
+    fu, fw, fr = rhs(u, w, alpha, beta, gamma, gtilde, ka, kd)
     K[0, 0] = fu
     K[0, 1] = fw
+    K[0, 2] = fr
     v = w
     phase = 1
     u_max = nan
     n = 0
     fu0 = fu
     fw0 = fw
+    fr0 = fr
     while True:
         if n >= max_steps:
-            # The energy still available bounds the rebound speed: e <= sqrt(2 H).
-            big_h = 0.5 * v * v + ppow(u, alpha, ka) * max(u, 0.0) / ap1 - gtilde * u
-            return math.sqrt(max(2.0 * big_h, 0.0)), t, u_max, n, _BUDGET
+            # The energy still available, 1/2 - q, bounds the rebound speed.
+            q_now = _dissipated(u, v, r, beta, gamma, kb)
+            return math.sqrt(max(1.0 - 2.0 * q_now, 0.0)), t, u_max, n, _BUDGET
         s = graded_step(u, v, h, GRADE_RATIO, s_min) if graded else h
         if capped:
             # Judge the cap where the step may take the bead (speed and load push it deeper).
@@ -165,7 +219,8 @@ def integrate_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, K, K
                 s = min(s, damping_step(u + s * max(v, 0.0) + 0.5 * s * s * gtilde, beta, gamma, steps))
             fu0 = K[0, 0]
             fw0 = K[0, 1]
-        u1, w1 = rk_step(u, w, s, K, alpha, beta, gamma, gtilde, ka, kb)
+            fr0 = K[0, 2]
+        u1, w1, r1 = rk_step(u, w, r, s, K, alpha, beta, gamma, gtilde, ka, kd)
         n += 1
         if capped:
             # A load can drive the bead deep into the damper within one step: judge the cap
@@ -176,7 +231,8 @@ def integrate_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, K, K
                 s = s_end if s_end < 0.5 * s else 0.5 * s
                 K[0, 0] = fu0
                 K[0, 1] = fw0
-                u1, w1 = rk_step(u, w, s, K, alpha, beta, gamma, gtilde, ka, kb)
+                K[0, 2] = fr0
+                u1, w1, r1 = rk_step(u, w, r, s, K, alpha, beta, gamma, gtilde, ka, kd)
                 n += 1
                 s_end = damping_step(u1, beta, gamma, steps)
         v1 = w1 - gamma * ppow(u1, beta, kb)
@@ -186,10 +242,10 @@ def integrate_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, K, K
             dense_coefficients(K, s, Q)
             have_q = True
             th0 = locate(ON_V, 0.0, u, w, Q, beta, gamma, kb, 0.0, 1.0)
-            um, wm = _restep(u, w, th0 * s, K, K2, alpha, beta, gamma, gtilde, ka, kb)
+            um, wm, _ = _restep(u, w, r, th0 * s, K, K2, alpha, beta, gamma, gtilde, ka, kd)
             n += 1
             vm = wm - gamma * ppow(um, beta, kb)
-            acc = _accel(um, vm, alpha, beta, gamma, gtilde, ka, kb)
+            acc = _accel(um, vm, alpha, beta, gamma, gtilde, ka, kd)
             # u is stationary here: the vertex of the local parabola removes the residual v.
             u_max = um - 0.5 * vm * vm / acc if acc < 0.0 else um
             phase = 2
@@ -205,51 +261,50 @@ def integrate_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, K, K
                 # g~ = 0: the return to u-bar = 0 is the detachment.
                 if not have_q:
                     dense_coefficients(K, s, Q)
-                d, e, used = _detach(u, w, s, th0, 1.0, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb)
+                d, e, used = _detach(u, w, r, s, th0, 1.0, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb, kd, swing2)
                 return e, t + d, u_max, n + used, _OK
         if phase == 3:
             if u1 <= 0.0:
                 if not have_q:
                     dense_coefficients(K, s, Q)
-                d, e, used = _detach(u, w, s, th0, 1.0, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb)
+                d, e, used = _detach(u, w, r, s, th0, 1.0, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb, kd, swing2)
                 return e, t + d, u_max, n + used, _OK
             if v1 >= 0.0:
                 if not have_q:
                     dense_coefficients(K, s, Q)
                     have_q = True
                 thv = locate(ON_V, 0.0, u, w, Q, beta, gamma, kb, th0, 1.0)
-                us, ws = _restep(u, w, thv * s, K, K2, alpha, beta, gamma, gtilde, ka, kb)
+                us, ws, _ = _restep(u, w, r, thv * s, K, K2, alpha, beta, gamma, gtilde, ka, kd)
                 n += 1
                 vs = ws - gamma * ppow(us, beta, kb)
-                acc = _accel(us, vs, alpha, beta, gamma, gtilde, ka, kb)
+                acc = _accel(us, vs, alpha, beta, gamma, gtilde, ka, kd)
                 u_min = us - 0.5 * vs * vs / acc if acc > 0.0 else us
                 if u_min > 0.0:
                     return 0.0, t + thv * s, u_max, n, _STUCK
                 # Grazing: u dipped below 0 inside the step, so the bead left the floor first.
-                d, e, used = _detach(u, w, s, th0, thv, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb)
+                d, e, used = _detach(u, w, r, s, th0, thv, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb, kd, swing2)
                 return e, t + d, u_max, n + used, _OK
         t += s
         u = u1
         w = w1
+        r = r1
         v = v1
         K[0, 0] = K[N_STAGES - 1, 0]
         K[0, 1] = K[N_STAGES - 1, 1]
+        K[0, 2] = K[N_STAGES - 1, 2]
         if max(abs(u - ubar), abs(v)) < rest_tol:
             if phase == 1:
                 u_max = max(u, ubar)
             return 0.0, t, u_max, n, _AT_REST
-        if gtilde > 0.0 and (phase > 1 or energy_in_phase1):
-            pot = ppow(u, alpha, ka) * max(u, 0.0) / ap1
-            kin = 0.5 * v * v
-            if kin + pot - gtilde * u < -_ENERGY_ROUNDOFF * (kin + pot + gtilde * abs(u)):
-                return 0.0, t, u_max, n, _STUCK
+        if gtilde > 0.0 and (phase > 1 or energy_in_phase1) and _dissipated(u, v, r, beta, gamma, kb) > q_stuck:
+            return 0.0, t, u_max, n, _STUCK
 
 
 @nb.njit
 def _run_range(lo, hi, order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps,
                e, t_f, u_max, n_steps, status):
-    K = np.empty((N_STAGES, 2))
-    K2 = np.empty((N_STAGES, 2))
+    K = np.empty((N_STAGES, 3))
+    K2 = np.empty((N_STAGES, 3))
     Q = np.empty((2, N_DENSE))
     for j in range(lo, hi):
         i = order[j]

@@ -29,8 +29,9 @@ N_DENSE = _P.shape[1]
 
 # Exponents of the report's models get a pow-free evaluation: pow() dominates the cost of a
 # stage, and sqrt is exact-rounded and several times cheaper.
-_KIND_ONE, _KIND_THREE_HALVES, _KIND_TWO, _KIND_FIVE_HALVES, _KIND_FIVE_FOURTHS, _KIND_THREE = range(6)
-_KIND_GENERAL = 9
+(_KIND_ONE, _KIND_THREE_HALVES, _KIND_TWO, _KIND_FIVE_HALVES, _KIND_FIVE_FOURTHS, _KIND_THREE,
+ _KIND_ZERO, _KIND_HALF, _KIND_QUARTER) = range(9)
+_KIND_GENERAL = 99
 
 
 @nb.njit
@@ -48,12 +49,22 @@ def power_kind(p):
         return _KIND_FIVE_FOURTHS
     if p == 3.0:
         return _KIND_THREE
+    if p == 0.0:
+        return _KIND_ZERO
+    if p == 0.5:
+        return _KIND_HALF
+    if p == 0.25:
+        return _KIND_QUARTER
     return _KIND_GENERAL
 
 
 @nb.njit(inline="always")
 def ppow(x, p, kind):
-    """``max(x, 0)**p`` for ``p >= 1`` (the report's ``x_+^p``)."""
+    """``x**p`` for ``x > 0``, and 0 for ``x <= 0`` (the report's ``x_+^p``; also for p = 0,
+    where it is the indicator of contact, closed at x = 0: the bead is in contact from its
+    first instant, so the damper acts at tau = 0)."""
+    if kind == _KIND_ZERO:
+        return 1.0 if x >= 0.0 else 0.0
     if x <= 0.0:
         return 0.0
     if kind == _KIND_ONE:
@@ -68,21 +79,37 @@ def ppow(x, p, kind):
         return x * math.sqrt(math.sqrt(x))
     if kind == _KIND_THREE:
         return x * x * x
+    if kind == _KIND_HALF:
+        return math.sqrt(x)
+    if kind == _KIND_QUARTER:
+        return math.sqrt(math.sqrt(x))
     return x ** p
 
 
 @nb.njit(inline="always")
-def rhs(u, w, alpha, beta, gamma, gtilde, ka, kb):
-    """Right-hand side of (4): returns ``(u', w')``."""
-    pa = ppow(u, alpha, ka)
+def rhs(u, w, alpha, beta, gamma, gtilde, ka, kd):
+    """Right-hand side of (4) and of the dissipation integral: returns ``(u', w', r')``.
+
+    The energy dissipated by the damper is ``q = int gamma beta u^(beta-1) v^2 dtau``; by
+    parts (``beta u^(beta-1) v = d(u^beta)/dtau``) ``q = gamma v u_+^beta + r`` with
+    ``r' = -gamma u_+^beta v'``, ``v' = g~ - u_+^alpha - gamma beta u_+^(beta-1) v``. The
+    integrand of r has only powers >= 1 of u, as smooth at u = 0 as the rest of (4), where
+    that of q (``u^(beta-1)``, e.g. ``u^(1/4)`` for TTI) would cost the method its order.
+    Carrying r gives the CoR from the energy balance ``e^2 = 1 - 2 q(T_f) = 1 - 2 r(T_f)``
+    (exactly 1 without damping), far better conditioned than ``e = -w`` after a swing
+    through a deep load well. ``kd`` is the :func:`power_kind` of ``beta - 1``.
+    """
+    pd = ppow(u, beta - 1.0, kd)
+    pb = u * pd if u > 0.0 else 0.0
     # Equal exponents (linear, Kuwabara-Kono) share the one power: it is most of a stage's cost.
-    pb = pa if alpha == beta else ppow(u, beta, kb)
-    return w - gamma * pb, gtilde - pa
+    pa = pb if alpha == beta else ppow(u, alpha, ka)
+    v = w - gamma * pb
+    return v, gtilde - pa, -gamma * pb * (gtilde - pa - gamma * beta * pd * v)
 
 
 @nb.njit
-def rk_step(u, w, h, K, alpha, beta, gamma, gtilde, ka, kb):
-    """Advance ``(u, w)`` by one step ``h``.
+def rk_step(u, w, r, h, K, alpha, beta, gamma, gtilde, ka, kd):
+    """Advance ``(u, w, r)`` by one step ``h``.
 
     ``K[0]`` must hold ``f(u, w)`` on entry (first-same-as-last); on exit ``K`` holds all
     stages, ``K[-1] = f(u_new, w_new)`` for the FSAL tableau.
@@ -90,24 +117,30 @@ def rk_step(u, w, h, K, alpha, beta, gamma, gtilde, ka, kb):
     for i in range(1, N_STAGES):
         du = 0.0
         dw = 0.0
+        dq = 0.0
         for j in range(i):
             a = _A[i, j]
             du += a * K[j, 0]
             dw += a * K[j, 1]
-        fu, fw = rhs(u + h * du, w + h * dw, alpha, beta, gamma, gtilde, ka, kb)
+            dq += a * K[j, 2]
+        fu, fw, fq = rhs(u + h * du, w + h * dw, alpha, beta, gamma, gtilde, ka, kd)
         K[i, 0] = fu
         K[i, 1] = fw
+        K[i, 2] = fq
     du = 0.0
     dw = 0.0
+    dq = 0.0
     for j in range(N_STAGES):
-        du += _B[j] * K[j, 0]
-        dw += _B[j] * K[j, 1]
-    return u + h * du, w + h * dw
+        b = _B[j]
+        du += b * K[j, 0]
+        dw += b * K[j, 1]
+        dq += b * K[j, 2]
+    return u + h * du, w + h * dw, r + h * dq
 
 
 @nb.njit
 def dense_coefficients(K, h, Q):
-    """Fill ``Q[c, j] = h * sum_i K[i, c] P[i, j]`` (polynomial coefficients of the step)."""
+    """Fill ``Q[c, j] = h * sum_i K[i, c] P[i, j]`` for c = u, w (the events need no q)."""
     for c in range(2):
         for j in range(N_DENSE):
             s = 0.0

@@ -21,7 +21,6 @@ Run ``python tests/test_integrator_accuracy.py`` for the per-case error table.
 """
 import functools
 import math
-import time
 
 import numba
 import numpy as np
@@ -155,16 +154,9 @@ ALL_EXPONENTS = [(1.0, 1.0), (1.5, 1.0), (1.5, 1.25), (1.5, 1.5), (1.5, 2.5), (5
                  (1.0, 5.0), (5.0, 1.0), (2.0, 3.0)]
 
 
-_EXIT_ERROR = pytest.mark.xfail(strict=True, reason=(
-    "e = -v(T_f) inherits the exit-time error times u'' = g~ (and rounding of states of size "
-    "g~): at gamma = 0 the linear model gives e - 1 = +2.2e-9, -5.9e-8, +2.3e-3 at g~ = 1e3, "
-    "1e4, 1e6 (e > 1 is unphysical); e^2 = 1 - 2 gamma beta int u^(beta-1) v^2 (energy "
-    "identity, tests/reference.py) gives 1 exactly"))
-
-
-@pytest.mark.parametrize("gtilde", [0.0, 1.0, 100.0, pytest.param(1e3, marks=_EXIT_ERROR),
-                                    pytest.param(1e4, marks=_EXIT_ERROR),
-                                    pytest.param(1e6, marks=_EXIT_ERROR)])
+# e comes from the energy balance e^2 = 1 - 2 q(T_f) where that is better conditioned than
+# e = -v(T_f) (which inherits rounding of states of size g~: +2.3e-3 at g~ = 1e6 before).
+@pytest.mark.parametrize("gtilde", [0.0, 1.0, 100.0, 1e3, 1e4, 1e6])
 def test_zero_damping_rebounds_elastically(gtilde):
     a, b = np.array(ALL_EXPONENTS).T
     res = sweep.integrate(a, b, 0.0, gtilde)
@@ -186,9 +178,9 @@ def test_heavy_damping_and_huge_loads_end_sensibly():
     out of budget reports a small e (gamma >= 2 creeps: its true e is 0 or tiny)."""
     a, b, g, G = np.meshgrid([1.0, 1.5, 5.0], [1.0, 1.5, 2.5, 5.0], [2.0, 10.0, 100.0],
                              [0.0, 1.0, 100.0, 1e4, 1e6], indexing="ij")
-    t0 = time.perf_counter()
     res = sweep.integrate(a, b, g, G)
-    assert time.perf_counter() - t0 < 30
+    # Bounded work (no hang): every point stops within the step budget.
+    assert np.all(res.n_steps <= sweep.DEFAULT_MAX_STEPS)
     assert np.all(np.isfinite(res.e)) and np.all((res.e >= 0) & (res.e <= 1))
     assert not np.any(res.status == Status.INVALID)
     decided = res.status != Status.BUDGET_EXHAUSTED
