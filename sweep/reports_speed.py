@@ -21,6 +21,7 @@ integrator's time per point -- on the same subset of points, for the max and the
 abs error. Two ratios: wall-clock time per point (the integrator uses every core through
 numba threads, scipy one core), and CPU time per point (process CPU time of all threads:
 equal footing per core, and less sensitive to other processes competing for the cores).
+The plot shows CPU time per point.
 """
 from __future__ import annotations
 
@@ -375,7 +376,7 @@ def _plot(path, rows, machine, reference, n_points, n_sub, model):
             if not rs:
                 continue
             x = [max(r[metric], floor) for r in rs]
-            y = [r["seconds_per_point"] for r in rs]
+            y = [r["cpu_seconds_per_point"] for r in rs]
             ax.loglog(x, y, style, color=color, ms=5, label=label)
             for r, xi, yi in zip(rs, x, y):
                 ax.annotate(r["setting"].replace(" (default)", "*"), (xi, yi),
@@ -383,16 +384,17 @@ def _plot(path, rows, machine, reference, n_points, n_sub, model):
                             color=color)
         ap = [r for r in rows if r["kind"] == "approximation"]
         for k, r in enumerate(ap):
-            ax.loglog([max(r[metric], floor)], [r["seconds_per_point"]], marker="*", ms=10,
+            ax.loglog([max(r[metric], floor)], [r["cpu_seconds_per_point"]], marker="*", ms=10,
                       ls="none", color=f"C{4 + k}", label=f"approx. {r['setting']}")
         ax.set_xlabel(f"{title} of e against the reference ({n_sub} common points)")
-        ax.set_ylabel("wall time per point [s]")
+        ax.set_ylabel("CPU time per point [s] (all threads)")
         ax.grid(True, which="both", alpha=0.25)
-    axes[0].legend(fontsize=7, loc="center left")
+    axes[0].legend(fontsize=7, loc="lower left")
     fig.suptitle(
         f"Work-precision, {PAPER_MODELS[model][2]} points (gamma in [1e-4, 0.32], g~ in "
-        f"[1e-3, 10]); sweep timed on {n_points} points with all cores, scipy one point at a "
-        f"time on one core; * = package default resolution\n"
+        f"[1e-3, 10]): process CPU time per point (the cost per core; wall times in "
+        f"speed.md); sweep timed on {n_points} points with its numba threads, scipy one point "
+        f"at a time; * = package default resolution\n"
         f"reference: integrator at {reference['steps']:g} steps, vs {reference['crosscheck']}"
         f" max diff {format_value(reference['crosscheck_max_diff'])}\n"
         f"{machine_line(machine)}", fontsize=8)
