@@ -52,8 +52,8 @@ from sweep._parallel import parallel_allowed
 from sweep.events import ON_U, ON_V, locate
 from sweep.model import Status
 from sweep.stepper import N_DENSE, N_STAGES, dense_coefficients, power_kind, ppow, rhs, rk_step
-from sweep.stepsize import (GRADE_FIRST, GRADE_RATIO, base_step, damping_limited, damping_step,
-                            graded_step, needs_grading)
+from sweep.stepsize import (base_step, damping_limited, damping_step, graded_step, grading,
+                            needs_grading)
 
 __all__ = ["integrate_arrays", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL"]
 
@@ -185,7 +185,8 @@ def integrate_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, K, K
     h = base_step(alpha, gtilde, steps)
     capped = damping_limited(alpha, beta, gamma, gtilde)
     graded = needs_grading(alpha, beta)
-    s_min = GRADE_FIRST * h
+    rho, first = grading(steps)
+    s_min = first * h
     xi = gamma * beta / (2.0 * math.sqrt(alpha)) * gtilde ** ((2.0 * beta - alpha - 1.0) / (2.0 * alpha)) \
         if gtilde > 0.0 else 0.0
     energy_in_phase1 = xi >= 1.0
@@ -212,7 +213,7 @@ def integrate_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, K, K
             # The energy still available, 1/2 - q, bounds the rebound speed.
             q_now = _dissipated(u, v, r, beta, gamma, kb)
             return math.sqrt(max(1.0 - 2.0 * q_now, 0.0)), t, u_max, n, _BUDGET
-        s = graded_step(u, v, h, GRADE_RATIO, s_min) if graded else h
+        s = graded_step(u, v, h, rho, s_min) if graded else h
         if capped:
             # Judge the cap where the step may take the bead (speed and load push it deeper).
             for _ in range(3):

@@ -28,7 +28,9 @@ floor (u = 0) when an exponent is not an integer: the solution carries terms in
 ~ h^(alpha+1)). Both ends of the impact sit on that point. Within ``d = u / |v|`` of it (the
 time to reach u = 0 at the current speed), steps are cut to ``rho d`` -- a geometric mesh
 graded towards the singular point -- but not below ``first * h``, the size of the step that
-starts (or ends) exactly on u = 0.
+starts (or ends) exactly on u = 0. Both rho and first are proportional to h (see
+:func:`grading`), so the graded zone's error falls like ``h^5`` and the method keeps its
+order 5 (tests/test_convergence.py).
 """
 from __future__ import annotations
 
@@ -38,13 +40,29 @@ import numba as nb
 
 from sweep.special import umax_undamped
 
-__all__ = ["GRADE_RATIO", "GRADE_FIRST", "MAX_DEPTH_FACTOR", "base_step", "damping_limited",
-           "damping_step", "needs_grading", "graded_step"]
+__all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "MAX_DEPTH_FACTOR", "base_step",
+           "damping_limited", "damping_step", "grading", "needs_grading", "graded_step"]
 
-#: Ratio of step to distance from u = 0 inside the graded zone.
+#: Ratio of step to distance from u = 0 inside the graded zone, at ``GRADE_STEPS``.
 GRADE_RATIO = 0.25
-#: Smallest graded step as a fraction of the base step.
+#: Smallest graded step as a fraction of the base step, at ``GRADE_STEPS``.
 GRADE_FIRST = 0.01
+#: Resolution at which the two above apply; both scale like 1/steps around it.
+GRADE_STEPS = 96.0
+
+
+@nb.njit(inline="always")
+def grading(steps):
+    """``(rho, first)`` for a resolution: both proportional to the base step.
+
+    The graded zone's error grows like ``(rho h)^(alpha+1)`` and the first step's like
+    ``(first h)^(alpha+1)``; with rho and first proportional to h both fall like ``h^5``
+    with the uniform steps' error, so the method keeps its order and a coarse resolution
+    does not pay for a fine grading. Capped at coarse resolutions, where the proportional
+    values would let the graded zone's error jump about.
+    """
+    scale = GRADE_STEPS / steps
+    return min(GRADE_RATIO * scale, 0.5), min(GRADE_FIRST * scale, 0.05)
 #: Cap of the load factor D (beyond it roundoff in the state dominates).
 MAX_DEPTH_FACTOR = 16.0
 
