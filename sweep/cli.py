@@ -53,6 +53,9 @@ def build_parser():
 
     p = sub.add_parser("validate", help="check a configuration without running it")
     p.add_argument("config", metavar="CONFIG")
+
+    from sweep.reports import add_report_commands  # noqa: PLC0415 -- plotting stays lazy
+    add_report_commands(sub)
     return parser
 
 
@@ -101,7 +104,8 @@ def main(argv=None):
     from sweep.config import ConfigError
     from sweep.store import ResumeError
 
-    handlers = {"run": _cmd_run, "info": _cmd_info, "validate": _cmd_validate}
+    handlers = {"run": _cmd_run, "info": _cmd_info, "validate": _cmd_validate,
+                "report": lambda a: a.func(a)}
     previous = None
     if args.command == "run":
         try:
