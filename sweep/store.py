@@ -49,9 +49,10 @@ REPORT = ("A. Chatterjee, G. James, B. Brogliato, Approximate analytical coeffic
           "nonlinear visco-elastic models, INRIA hal-03462750 (2021)")
 
 #: HDF5 chunk cache per variable. netCDF's default (64 MB) times ~20 variables would let the
-#: cache alone exceed the memory budget of a large run; writes are sequential, so a few
-#: storage chunks per variable suffice.
-CHUNK_CACHE_BYTES = 4 * 2 ** 20
+#: cache alone exceed the memory budget of a large run; writes are sequential, so two
+#: storage chunks (512 kB each) per variable suffice, and a small cache also makes HDF5
+#: compress and write as it goes instead of all at close.
+CHUNK_CACHE_BYTES = 2 ** 20
 #: Target number of elements per storage chunk (512 kB of float64).
 STORAGE_CHUNK = 2 ** 16
 #: zlib level: 1 is several times faster than the default 4 at a nearly equal ratio on
