@@ -4,14 +4,16 @@ numba's ``cache=True`` checks only the modification time of the file that define
 function, not of the modules it calls into: an edit to the step function would keep serving
 the old machine code. Kernel modules are therefore imported (and their dispatchers created,
 which is when numba picks the cache location) while ``numba.config.CACHE_DIR`` points to a
-directory named after a hash of every source file of the package and the numba version.
-The user's own setting is restored right after.
+directory named after a hash of the kernel sources (every module defining jitted functions,
+and the package modules those import, transitively) and the numba version. Editing the CLI or the
+store does not invalidate compiled kernels. The user's own setting is restored right after.
 """
 from __future__ import annotations
 
 import contextlib
 import hashlib
 import os
+import re
 from pathlib import Path
 
 import numba
@@ -19,11 +21,29 @@ import numba
 _PACKAGE_DIR = Path(__file__).resolve().parent
 
 
+_IMPORT = re.compile(r"^\s*(?:from\s+sweep\.(\w+)\s+import|import\s+sweep\.(\w+))", re.MULTILINE)
+
+
+def kernel_sources() -> list[Path]:
+    """Modules whose text can change compiled code: those defining jitted functions, and
+    the package modules they import (transitively)."""
+    sources = {p.stem: p.read_text(encoding="utf-8") for p in _PACKAGE_DIR.glob("*.py")}
+    todo = [name for name, text in sources.items() if re.search(r"\bnjit\b", text)]
+    seen = set()
+    while todo:
+        name = todo.pop()
+        if name in seen or name not in sources:
+            continue
+        seen.add(name)
+        todo.extend(a or b for a, b in _IMPORT.findall(sources[name]))
+    return sorted(_PACKAGE_DIR / f"{name}.py" for name in seen)
+
+
 def source_hash() -> str:
-    """Hash of the package's Python sources and the numba version."""
+    """Hash of the kernel sources (:func:`kernel_sources`) and the numba version."""
     h = hashlib.sha256(numba.__version__.encode())
-    for path in sorted(_PACKAGE_DIR.rglob("*.py")):
-        h.update(path.relative_to(_PACKAGE_DIR).as_posix().encode())
+    for path in kernel_sources():
+        h.update(path.name.encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]
 
