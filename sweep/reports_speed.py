@@ -393,7 +393,7 @@ def _plot(path, rows, machine, reference, n_points, n_sub, model):
     fig.suptitle(
         f"Work-precision, {PAPER_MODELS[model][2]} points (gamma in [1e-4, 0.32], g~ in "
         f"[1e-3, 10]): process CPU time per point (the cost per core; wall times in "
-        f"speed.md); sweep timed on {n_points} points with its numba threads, scipy one point "
+        f"speed.md);\nsweep timed on {n_points} points with its numba threads, scipy one point "
         f"at a time; * = package default resolution\n"
         f"reference: integrator at {reference['steps']:g} steps, vs {reference['crosscheck']}"
         f" max diff {format_value(reference['crosscheck_max_diff'])}\n"
