@@ -266,44 +266,38 @@ def integrate_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, K, K
             # u is stationary here: the vertex of the local parabola removes the residual v.
             u_max = um - 0.5 * vm * vm / acc if acc < 0.0 else um
             phase = 2
-        if phase == 2:
-            if ubar > 0.0:
-                if u1 < ubar:
-                    if not have_q:
-                        dense_coefficients(K, s, Q)
-                        have_q = True
-                    th0 = locate(ON_U, ubar, u, w, Q, beta, gamma, kb, th0, 1.0)
-                    phase = 3
-            elif u1 <= 0.0:
-                # g~ = 0: the return to u-bar = 0 is the detachment.
-                if not have_q:
-                    dense_coefficients(K, s, Q)
-                d, q_f, v_f, used = _detach(u, w, r, s, th0, 1.0, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb, kd)
-                lam = _damping_integral(beta, gamma, u_max, t + d)
-                return _cor_at_exit(q_f, v_f, swing2, lam), t + d, u_max, n + used, _OK
-        if phase == 3:
-            if u1 <= 0.0:
-                if not have_q:
-                    dense_coefficients(K, s, Q)
-                d, q_f, v_f, used = _detach(u, w, r, s, th0, 1.0, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb, kd)
-                lam = _damping_integral(beta, gamma, u_max, t + d)
-                return _cor_at_exit(q_f, v_f, swing2, lam), t + d, u_max, n + used, _OK
-            if v1 >= 0.0:
-                if not have_q:
-                    dense_coefficients(K, s, Q)
-                    have_q = True
-                thv = locate(ON_V, 0.0, u, w, Q, beta, gamma, kb, th0, 1.0)
-                us, ws, _ = _restep(u, w, r, thv * s, K, K2, alpha, beta, gamma, gtilde, ka, kd)
-                n += 1
-                vs = ws - gamma * ppow(us, beta, kb)
-                acc = _accel(us, vs, alpha, beta, gamma, gtilde, ka, kd)
-                u_min = us - 0.5 * vs * vs / acc if acc > 0.0 else us
-                if u_min > 0.0:
-                    return 0.0, t + thv * s, u_max, n, _STUCK
-                # Grazing: u dipped below 0 inside the step, so the bead left the floor first.
-                d, q_f, v_f, used = _detach(u, w, r, s, th0, thv, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb, kd)
-                lam = _damping_integral(beta, gamma, u_max, t + d)
-                return _cor_at_exit(q_f, v_f, swing2, lam), t + d, u_max, n + used, _OK
+        if phase == 2 and ubar > 0.0 and u1 < ubar:
+            if not have_q:
+                dense_coefficients(K, s, Q)
+                have_q = True
+            th0 = locate(ON_U, ubar, u, w, Q, beta, gamma, kb, th0, 1.0)
+            phase = 3
+        # With g~ = 0 (u-bar = 0) the return to u-bar in phase 2 is the detachment itself.
+        leaving = phase == 3 or (phase == 2 and ubar == 0.0)
+        exiting = leaving and u1 <= 0.0
+        th_exit = 1.0
+        if not exiting and phase == 3 and v1 >= 0.0:
+            if not have_q:
+                dense_coefficients(K, s, Q)
+                have_q = True
+            thv = locate(ON_V, 0.0, u, w, Q, beta, gamma, kb, th0, 1.0)
+            us, ws, _ = _restep(u, w, r, thv * s, K, K2, alpha, beta, gamma, gtilde, ka, kd)
+            n += 1
+            vs = ws - gamma * ppow(us, beta, kb)
+            acc = _accel(us, vs, alpha, beta, gamma, gtilde, ka, kd)
+            u_min = us - 0.5 * vs * vs / acc if acc > 0.0 else us
+            if u_min > 0.0:
+                return 0.0, t + thv * s, u_max, n, _STUCK
+            # Grazing: u dipped below 0 inside the step, so the bead left the floor first.
+            exiting = True
+            th_exit = thv
+        if exiting:
+            if not have_q:
+                dense_coefficients(K, s, Q)
+            d, q_f, v_f, used = _detach(u, w, r, s, th0, th_exit, Q, K, K2, alpha, beta, gamma, gtilde,
+                                        ka, kb, kd)
+            lam = _damping_integral(beta, gamma, u_max, t + d)
+            return _cor_at_exit(q_f, v_f, swing2, lam), t + d, u_max, n + used, _OK
         t += s
         u = u1
         w = w1
