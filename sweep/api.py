@@ -123,8 +123,8 @@ def cor_with_status(alpha, beta, gamma, gtilde, method="numeric", **options):
     b = broadcast_points(alpha, beta, gamma, gtilde)
     e, status = approx.approx_cor(method, *b.flat, **options)
     if b.scalar and status[0] == Status.INVALID:
-        raise ValueError(f"method {method!r} is not defined at alpha={b.flat[0][0]!r}, "
-                         f"beta={b.flat[1][0]!r} (see sweep.approx)")
+        raise ValueError(f"method {method!r} is not defined at alpha={float(b.flat[0][0])!r}, "
+                         f"beta={float(b.flat[1][0])!r} (see sweep.approx)")
     st = b.restore(status)
     return b.restore(e), (Status(st) if b.scalar else st)
 
