@@ -332,6 +332,8 @@ def _run_range(lo, hi, order, alpha, beta, gamma, gtilde, steps, rest_tol, max_s
 
 # Points are taken in blocks from a shuffled order: costs vary by orders of magnitude
 # (sticking ends early, heavy damping runs long) and prange splits the range evenly.
+# No fastmath anywhere: the finiteness checks must hold, and IEEE semantics keep results
+# bit-identical whatever the thread count, block or order.
 _BLOCK = 64
 
 
