@@ -252,7 +252,8 @@ def integrate_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, K, K
                 u1, w1, r1 = rk_step(u, w, r, s, K, alpha, beta, gamma, gtilde, ka, kd)
                 n += 1
                 s_end = damping_step(u1, beta, gamma, steps)
-        v1 = w1 - gamma * ppow(u1, beta, kb)
+        # The last (FSAL) stage is f at the step's end: its u' is the velocity v1, no power.
+        v1 = K[N_STAGES - 1, 0]
         th0 = 0.0
         have_q = False
         if phase == 1 and v1 <= 0.0:
@@ -310,7 +311,8 @@ def integrate_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, K, K
             if phase == 1:
                 u_max = max(u, ubar)
             return 0.0, t, u_max, n, _AT_REST
-        if gtilde > 0.0 and (phase > 1 or energy_in_phase1) and _dissipated(u, v, r, beta, gamma, kb) > q_stuck:
+        # q = gamma v u^beta + r, with gamma u^beta = w - v read off the state.
+        if gtilde > 0.0 and (phase > 1 or energy_in_phase1) and v * (w - v) + r > q_stuck:
             return 0.0, t, u_max, n, _STUCK
 
 
