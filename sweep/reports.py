@@ -58,6 +58,13 @@ def speed_report(out="speed_report", **kwargs):
 
 # --------------------------------------------------------------------------- command line
 
+def _print_files(res, heading):
+    print(heading)
+    for f in res["files"]:
+        print(f"  {f}")
+    return 0
+
+
 def _cmd_accuracy(args):
     import sys
 
@@ -66,20 +73,14 @@ def _cmd_accuracy(args):
     except (OSError, ValueError) as exc:
         print(f"sweep report accuracy: error: {args.dataset}: {exc}", file=sys.stderr)
         return 1
-    print(f"accuracy report of {args.dataset}: {len(res['files'])} files in {res['out']}")
-    for f in res["files"]:
-        print(f"  {f}")
-    return 0
+    return _print_files(res, f"accuracy report of {args.dataset}: {len(res['files'])} files in {res['out']}")
 
 
 def _cmd_paper(args):
     res = paper_report(args.out, n_gamma=args.n_gamma, n_crit=args.n_crit, steps=args.steps,
                        models=args.models, progress=not args.quiet)
     print(res["markdown"])
-    print(f"files in {res['out']}:")
-    for f in res["files"]:
-        print(f"  {f}")
-    return 0
+    return _print_files(res, f"files in {res['out']}:")
 
 
 def _cmd_speed(args):
@@ -87,10 +88,7 @@ def _cmd_speed(args):
                        n_check=args.n_check, model=args.model, seed=args.seed,
                        progress=not args.quiet)
     print(res["markdown"])
-    print(f"files in {res['out']}:")
-    for f in res["files"]:
-        print(f"  {f}")
-    return 0
+    return _print_files(res, f"files in {res['out']}:")
 
 
 def add_report_commands(subparsers):
