@@ -40,6 +40,12 @@ def _check_method(method):
         raise ValueError(f"method must be one of {_METHODS}, got {method!r}")
 
 
+def _valid(alpha, beta, x):
+    """Points inside the domain: exponents >= 1 (Assumption 1), x (gamma or g~) >= 0, finite."""
+    return ((alpha >= 1.0) & (beta >= 1.0) & np.isfinite(alpha) & np.isfinite(beta)
+            & np.isfinite(x) & (x >= 0.0))
+
+
 def _constants(alpha, beta):
     valid = (alpha >= 1.0) & (beta >= 1.0)
     c, r = large_gtilde_coefficient(np.where(valid, alpha, 1.0), np.where(valid, beta, 1.0))
@@ -140,7 +146,7 @@ def critical_gtilde(alpha, beta, gamma, method="approx", **integrator_options):
     b = Broadcast(("alpha", "beta", "gamma"), (alpha, beta, gamma))
     b.raise_if_invalid(PARAMETER_RULES)
     a, be, g = b.flat
-    valid = (a >= 1.0) & (be >= 1.0) & np.isfinite(a) & np.isfinite(be) & np.isfinite(g) & (g >= 0.0)
+    valid = _valid(a, be, g)
     c, r = _constants(a, be)
     with np.errstate(divide="ignore", invalid="ignore"):
         approx = np.where(valid, (1.0 / (2.0 * g * c)) ** (1.0 / r), np.nan)
@@ -185,7 +191,7 @@ def critical_gamma(alpha, beta, gtilde, method="approx", **integrator_options):
     b = Broadcast(("alpha", "beta", "gtilde"), (alpha, beta, gtilde))
     b.raise_if_invalid(PARAMETER_RULES)
     a, be, gt = b.flat
-    valid = (a >= 1.0) & (be >= 1.0) & np.isfinite(a) & np.isfinite(be) & np.isfinite(gt) & (gt >= 0.0)
+    valid = _valid(a, be, gt)
     c, r = _constants(a, be)
     with np.errstate(divide="ignore", invalid="ignore"):
         approx = np.where(valid, 1.0 / (2.0 * c * gt ** r), np.nan)
