@@ -2,7 +2,7 @@
 
 Evaluates 1,000,000 Kuwabara-Kono points (gamma = 10**U(-4, -0.5) drawn first, then
 g~ = 10**U(-3, 1), ``numpy.random.default_rng(0)``) with every method of
-:func:`sweep.approx.approx_cor` on all cores and prints points/s. The first call of each
+:func:`sweep.kernels.approx.approx_cor` on all cores and prints points/s. The first call of each
 method (compilation, or loading the kernel cache) is timed separately and excluded.
 
 Targets on 2 cores: ord1, sp, large_gtilde >= 2e7 points/s; ord2_numint >= 2e5;
@@ -23,7 +23,7 @@ import time
 import numba
 import numpy as np
 
-from sweep import approx
+from sweep.kernels import approx
 
 TARGETS = {"ord1": 2e7, "sp": 2e7, "large_gtilde": 2e7, "ord2_numint": 2e5, "ord2_approx": 3e5}
 

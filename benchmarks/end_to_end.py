@@ -35,7 +35,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from sweep import api, config, design, runner, store  # noqa: E402
+from sweep import api, store  # noqa: E402
+from sweep.sweeps import config, design, runner  # noqa: E402
 
 MEMORY_CONFIG = """
 title = "memory test: {n} points, approximations only"

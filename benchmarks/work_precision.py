@@ -1,6 +1,6 @@
 """Work-precision benchmark: time per point against error, sweep against scipy.
 
-The same measurement as ``sweep report speed`` (see :mod:`sweep.reports_speed`), with every
+The same measurement as ``sweep report speed`` (see :mod:`sweep.reports.speed`), with every
 knob exposed: on one common point set, the integrator at several resolutions, each of the
 report's approximations, and scipy's ``solve_ivp`` (RK45, DOP853 with events, one point at
 a time) on a subset; the reference is the integrator at high resolution, cross-checked with
@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import argparse
 
-from sweep.paper_values import PAPER_MODELS
-from sweep.reports_speed import STEPS_LIST, speed_report
+from sweep.reports.paper_values import PAPER_MODELS
+from sweep.reports.speed import STEPS_LIST, speed_report
 
 
 def main(argv=None):

@@ -12,14 +12,14 @@ from typing import Any
 import numpy as np
 
 from sweep._arrays import broadcast_points
-from sweep.integrator import (DEFAULT_MAX_STEPS, DEFAULT_REST_TOL, DEFAULT_STEPS,
+from sweep.kernels.integrator import (DEFAULT_MAX_STEPS, DEFAULT_REST_TOL, DEFAULT_STEPS,
                               integrate_arrays)
 from sweep.model import Status
 
 __all__ = ["integrate", "cor", "cor_with_status", "IntegrationResult", "METHODS",
            "APPROXIMATIONS", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL"]
 
-#: The report's closed-form approximations (Sections 4-5), see :mod:`sweep.approx`.
+#: The report's closed-form approximations (Sections 4-5), see :mod:`sweep.kernels.approx`.
 APPROXIMATIONS = ("ord1", "sp", "large_gtilde", "ord2_numint", "ord2_approx")
 #: Every method :func:`cor` accepts.
 METHODS = ("numeric",) + APPROXIMATIONS
@@ -73,7 +73,7 @@ def integrate(alpha, beta, gamma, gtilde, *, steps=None, rest_tol=DEFAULT_REST_T
     """Numerical coefficient of restitution by a fixed-step Runge-Kutta 5(4) march.
 
     Integrates the scaled problem (2) in the Lipschitz form (4) with the three phases of the
-    report's Algorithm 1 (see :mod:`sweep.integrator`), in parallel over points.
+    report's Algorithm 1 (see :mod:`sweep.kernels.integrator`), in parallel over points.
 
     Parameters
     ----------
@@ -118,13 +118,13 @@ def cor_with_status(alpha, beta, gamma, gtilde, method="numeric", **options):
     if method == "numeric":
         r = integrate(alpha, beta, gamma, gtilde, **options)
         return r.e, r.status
-    from sweep import approx  # noqa: PLC0415 -- keeps the integrator usable on its own
+    from sweep.kernels import approx  # noqa: PLC0415 -- keeps the integrator usable on its own
 
     b = broadcast_points(alpha, beta, gamma, gtilde)
     e, status = approx.approx_cor(method, *b.flat, **options)
     if b.scalar and status[0] == Status.INVALID:
         raise ValueError(f"method {method!r} is not defined at alpha={float(b.flat[0][0])!r}, "
-                         f"beta={float(b.flat[1][0])!r} (see sweep.approx)")
+                         f"beta={float(b.flat[1][0])!r} (see sweep.kernels.approx)")
     st = b.restore(status)
     return b.restore(e), (Status(st) if b.scalar else st)
 

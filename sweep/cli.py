@@ -60,7 +60,7 @@ def build_parser():
 
 
 def _cmd_validate(args):
-    from sweep import config, design
+    from sweep.sweeps import config, design
 
     cfg = config.load(args.config)
     d = design.build(cfg.design)
@@ -85,7 +85,7 @@ def _cmd_info(args):
 
 
 def _cmd_run(args):
-    from sweep import runner
+    from sweep.sweeps import runner
 
     runner.run(args.config, args.output, restart=args.restart, quiet=args.quiet,
                chunk_size=args.chunk_size, scheduler=args.scheduler)
@@ -101,7 +101,7 @@ def _terminate(signum, frame):
 def main(argv=None):
     """Entry point of the ``sweep`` console script; returns the exit status."""
     args = build_parser().parse_args(argv)
-    from sweep.config import ConfigError
+    from sweep.sweeps.config import ConfigError
     from sweep.store import ResumeError
 
     handlers = {"run": _cmd_run, "info": _cmd_info, "validate": _cmd_validate,

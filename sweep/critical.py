@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from sweep._arrays import PARAMETER_RULES, Broadcast
-from sweep.approx import large_gtilde_coefficient
+from sweep.kernels.approx import large_gtilde_coefficient
 from sweep.model import Status
 
 __all__ = ["critical_gtilde", "critical_gamma", "RTOL"]

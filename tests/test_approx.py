@@ -1,12 +1,12 @@
-"""sweep.approx: the report's closed-form approximations of the CoR, as vectorised kernels."""
+"""sweep.kernels.approx: the report's closed-form approximations of the CoR, as vectorised kernels."""
 import threading
 
 import numba
 import numpy as np
 import pytest
 
-from sweep import approx as A
-from sweep import special as S
+from sweep.kernels import approx as A
+from sweep.kernels import special as S
 from sweep.model import Status
 
 KK = (1.5, 1.5)

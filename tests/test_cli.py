@@ -103,7 +103,7 @@ def test_kill_9_then_rerun_resumes_to_the_uninterrupted_result(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     cmd = [sys.executable, "-m", "sweep.cli", "run", str(cfg), "-o", str(out), "--quiet"]
     # A slow kernel makes the race deterministic: each chunk sleeps in the subprocess.
-    slow = ("import sys, time, runpy; import sweep.runner as r; real = r.compute_chunk\n"
+    slow = ("import sys, time, runpy; import sweep.sweeps.runner as r; real = r.compute_chunk\n"
             "def slow(*a):\n    time.sleep(0.3)\n    return real(*a)\n"
             "r.compute_chunk = slow; sys.argv = ['sweep'] + sys.argv[1:]\n"
             "from sweep.cli import main; sys.exit(main())\n")

@@ -1,11 +1,11 @@
-"""Configuration parsing and validation (sweep.config)."""
+"""Configuration parsing and validation (sweep.sweeps.config)."""
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from sweep import config
-from sweep.config import ConfigError
+from sweep.sweeps import config
+from sweep.sweeps.config import ConfigError
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 

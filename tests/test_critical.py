@@ -20,7 +20,7 @@ def test_approx_kuwabara_kono_law():
 
 @pytest.mark.parametrize("alpha, beta", [(1.5, 1.0), (1.5, 1.25), (1.5, 2.5), (1.0, 1.0)])
 def test_approx_is_where_large_gtilde_cor_vanishes(alpha, beta):
-    from sweep.approx import approx_cor  # noqa: PLC0415
+    from sweep.kernels.approx import approx_cor  # noqa: PLC0415
 
     gamma = 0.01
     gc = K.critical_gtilde(alpha, beta, gamma)

@@ -1,11 +1,11 @@
-"""Designs: grid and design-of-experiments points, generated per chunk (sweep.design)."""
+"""Designs: grid and design-of-experiments points, generated per chunk (sweep.sweeps.design)."""
 import warnings
 
 import numpy as np
 import pytest
 from scipy.stats import qmc
 
-from sweep import config, design
+from sweep.sweeps import config, design
 
 GRID = """
 [design]

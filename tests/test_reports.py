@@ -18,18 +18,18 @@ import xarray as xr
 from scipy.special import beta as beta_fn
 
 import sweep
-from sweep import paper_values as pv
+from sweep.reports import paper_values as pv
 from sweep import reports
-from sweep.reports_accuracy import REGIONS, accuracy_report, load_errors
-from sweep.reports_paper import (compute_sweeps, gamma_c_24, paper_gamma_grid, paper_report,
+from sweep.reports.accuracy import REGIONS, accuracy_report, load_errors
+from sweep.reports.paper import (compute_sweeps, gamma_c_24, paper_gamma_grid, paper_report,
                                  table_rows)
-from sweep.reports_speed import scipy_user_cor, speed_report, time_at_error
+from sweep.reports.speed import scipy_user_cor, speed_report, time_at_error
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
 def _large_gtilde_c_r(alpha, beta):
-    """C and r of (23), written out independently of sweep.approx."""
+    """C and r of (23), written out independently of sweep.kernels.approx."""
     r = beta / alpha + 1 / (2 * alpha) + 0.5
     c = (2 * math.sqrt(2) * (beta / alpha) * (alpha + 1) ** (beta / alpha + 1 / (2 * alpha))
          * beta_fn((beta + 0.5) / alpha, 1.5))
@@ -169,7 +169,7 @@ def test_accuracy_report_scattered(tmp_path):
 
 def test_accuracy_report_binned_exponents(tmp_path):
     """A design sampling the exponents: panels and rows per (alpha, beta) bin, hexbins."""
-    from sweep import reports_accuracy as ra
+    from sweep.reports import accuracy as ra
 
     rng = np.random.default_rng(1)
     n = ra.HEXBIN_ABOVE * 4 + 400                    # > HEXBIN_ABOVE points per bin
@@ -377,7 +377,7 @@ def test_add_report_commands(grid_dataset, tmp_path):
 
 
 def test_import_sweep_does_not_import_matplotlib():
-    code = ("import sys, sweep, sweep.reports, sweep.paper_values; "
+    code = ("import sys, sweep, sweep.reports, sweep.reports.paper_values; "
             "sys.exit('matplotlib' in sys.modules or 'xarray' in sys.modules)")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 

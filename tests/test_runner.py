@@ -1,10 +1,11 @@
-"""Chunked execution, only-requested outputs, resume and determinism (sweep.runner)."""
+"""Chunked execution, only-requested outputs, resume and determinism (sweep.sweeps.runner)."""
 import numba
 import numpy as np
 import pytest
 import xarray as xr
 
-from sweep import api, config, design, runner, store
+from sweep import api, store
+from sweep.sweeps import config, design, runner
 
 GRID = """
 title = "runner test"

@@ -1,4 +1,4 @@
-"""sweep.special: Beta function, the map (43) and its inverse, I and Q by quadrature and by the
+"""sweep.kernels.special: Beta function, the map (43) and its inverse, I and Q by quadrature and by the
 report's Chebyshev-Beta approximation, closed forms (22), (23), (39), (40).
 
 The references here are independent: scipy's Beta function, scipy's adaptive QUADPACK with
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy import integrate, optimize, special as sps
 
-from sweep import special as S
+from sweep.kernels import special as S
 
 EPS = np.finfo(float).eps
 

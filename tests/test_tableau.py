@@ -4,7 +4,7 @@ import itertools
 import numpy as np
 import pytest
 
-from sweep.tableau import DORMAND_PRINCE_54 as T
+from sweep.kernels.tableau import DORMAND_PRINCE_54 as T
 
 
 def _trees(order):

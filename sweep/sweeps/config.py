@@ -360,7 +360,7 @@ def _parse_doe(design):
 
 #: Design kinds: ``design.kind`` -> parser of the ``[design]`` table. A new kind (e.g. the
 #: physical "scene" mapped to (gamma, g~) by sweep.model.scale) registers its parser here
-#: and a matching builder in ``sweep.design.BUILDERS``; nothing else needs to change.
+#: and a matching builder in ``sweep.sweeps.design.BUILDERS``; nothing else needs to change.
 DESIGN_KINDS: dict[str, Callable[[_Table], Any]] = {
     "grid": _parse_grid,
     "doe": _parse_doe,

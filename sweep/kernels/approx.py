@@ -20,9 +20,9 @@ approximate CoR ``e`` in [0, 1]:
         e_s = max(1 - b I gamma + b^2 I (Q - I/2) gamma^2, 0)
         e   = min(sqrt(max(e^2, 0)), e_s)
 
-    with ``I(g~)``, ``Q(g~)`` by quadrature (:func:`sweep.special.iq_quadrature`, ~1e-15) or
+    with ``I(g~)``, ``Q(g~)`` by quadrature (:func:`sweep.kernels.special.iq_quadrature`, ~1e-15) or
     by the report's Chebyshev-Beta approximation of order ``n`` (Prop. 3-4, (43)-(53),
-    :func:`sweep.special.iq_chebyshev`). Clipped at 1: both e^2 and e_s exceed 1 once the
+    :func:`sweep.kernels.special.iq_chebyshev`). Clipped at 1: both e^2 and e_s exceed 1 once the
     gamma^2 term wins (gamma of order 1, outside the expansion's range; SPEC section 7).
 
 All methods return status ``Status.OK`` for valid points; points with alpha < 1, beta < 1,
@@ -42,10 +42,10 @@ import numba as nb
 import numpy as np
 
 from sweep._arrays import PARAMETER_RULES, Broadcast
-from sweep._jit import kernel_cache
-from sweep._parallel import parallel_allowed
+from sweep.kernels._jit import kernel_cache
+from sweep.kernels._parallel import parallel_allowed
 from sweep.model import Status
-from sweep.special import (chebyshev_tables, first_order_constants, iq_at_zero, iq_chebyshev,
+from sweep.kernels.special import (chebyshev_tables, first_order_constants, iq_at_zero, iq_chebyshev,
                            iq_quadrature, large_gtilde_constants)
 
 __all__ = ["METHODS", "SP_C2", "approx_cor", "coefficients", "coefficients_at_zero",
@@ -69,9 +69,9 @@ _COEF_ZERO = 9       # I(0), Q(0) (39), (40)
 def _jit(**options):
     """``numba.njit(cache=True, **options)``, caching under the package's source-hash directory.
 
-    The dispatcher is created inside :func:`sweep._jit.kernel_cache`: this module is imported
+    The dispatcher is created inside :func:`sweep.kernels._jit.kernel_cache`: this module is imported
     lazily (after ``sweep/__init__`` has left that context), and numba's own cache key would
-    only check this file, not the functions of :mod:`sweep.special` compiled into the kernels.
+    only check this file, not the functions of :mod:`sweep.kernels.special` compiled into the kernels.
     """
     def wrap(fn):
         with kernel_cache():

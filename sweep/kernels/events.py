@@ -3,13 +3,13 @@
 Events of Algorithm 1 are zeros of ``u - c`` (c = u-bar or 0) or of the velocity
 ``v = w - gamma u_+^beta``. They are bracketed by sign tests, located here on the step's
 4th-order interpolant by the Illinois variant of regula falsi, and then refined by the
-integrator with full Runge-Kutta steps from the step's start (:mod:`sweep.integrator`).
+integrator with full Runge-Kutta steps from the step's start (:mod:`sweep.kernels.integrator`).
 """
 from __future__ import annotations
 
 import numba as nb
 
-from sweep.stepper import dense_eval, ppow
+from sweep.kernels.stepper import dense_eval, ppow
 
 __all__ = ["ON_U", "ON_V", "event_value", "locate"]
 

@@ -1,7 +1,7 @@
 """Chunked, resumable execution of a sweep.
 
 The design is cut into chunks of ``chunk_size`` consecutive points (flat index). For each
-chunk the runner generates the points (:mod:`sweep.design`), computes exactly the requested
+chunk the runner generates the points (:mod:`sweep.sweeps.design`), computes exactly the requested
 outputs (:func:`compute_chunk`, which calls :mod:`sweep.api`), saves the chunk for resuming
 and writes it into the output being assembled (:mod:`sweep.store`). Memory is bounded by a
 few chunks, whatever the design size.
@@ -39,8 +39,8 @@ from pathlib import Path
 import numpy as np
 
 from sweep import api
-from sweep import config as _config
-from sweep import design as _design
+from sweep.sweeps import config as _config
+from sweep.sweeps import design as _design
 from sweep import store
 from sweep._version import __version__
 
@@ -185,7 +185,7 @@ def source_sha256():
     version number alone does not see a local edit. Resuming, and reusing an existing
     output, therefore also require the same source hash.
     """
-    package = Path(__file__).resolve().parent
+    package = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
     for path in sorted(package.rglob("*.py")):
         h.update(path.relative_to(package).as_posix().encode())
@@ -362,7 +362,7 @@ def run(cfg, output=None, *, restart=False, quiet=False, chunk_size=None, schedu
 
     Raises
     ------
-    sweep.config.ConfigError
+    sweep.sweeps.config.ConfigError
         Invalid configuration.
     sweep.store.ResumeError
         Saved partial results or an existing output do not match this configuration.

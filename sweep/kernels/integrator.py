@@ -1,7 +1,7 @@
 """Numerical CoR: a fixed-step Runge-Kutta march of (4) with the three phases of Algorithm 1.
 
 Per point (scaled parameters ``alpha, beta, gamma, g~``) the bead starts at ``u = 0``,
-``w = 1`` and is marched with the base step of :mod:`sweep.stepsize` (graded near u = 0).
+``w = 1`` and is marched with the base step of :mod:`sweep.kernels.stepsize` (graded near u = 0).
 Phases (report, Sec. 3 and Algorithm 1):
 
 1. until ``v = 0`` crossing downward -- maximum compression ``u_max``;
@@ -11,7 +11,7 @@ Phases (report, Sec. 3 and Algorithm 1):
    sticks, ``e = 0``.
 
 Each event is bracketed by a sign test at the step's ends, located on the step's interpolant
-(:mod:`sweep.events`) and refined with full Runge-Kutta steps from the step's start (Newton
+(:mod:`sweep.kernels.events`) and refined with full Runge-Kutta steps from the step's start (Newton
 on the re-stepped state), so located times and states carry the method's own accuracy.
 Grazing (u dipping below 0 inside one step and coming back) is caught in phase 3 through the
 velocity's sign change: the minimum of u at ``v = 0`` decides between sticking and detachment.
@@ -20,7 +20,7 @@ Two extra stopping rules keep every point bounded:
 
 * rest: ``max(|u - u-bar|, |v|) < rest_tol`` -> ``e = 0``, status AT_REST (report, Sec. 3);
 * energy: ``H = v^2/2 + u_+^(alpha+1)/(alpha+1) - g~ u = 1/2 - q`` never increases
-  (q, the energy dissipated by the damper, is carried along, see :func:`sweep.stepper.rhs`)
+  (q, the energy dissipated by the damper, is carried along, see :func:`sweep.kernels.stepper.rhs`)
   and equals ``e^2/2 >= 0`` at a detachment, so once ``q > 1/2`` (beyond roundoff) the bead
   can never leave the floor: ``e = 0``, status STUCK.
   This is what ends overdamped points that creep towards u-bar. It is applied from phase 2 on,
@@ -48,16 +48,16 @@ import math
 import numba as nb
 import numpy as np
 
-from sweep._parallel import parallel_allowed
-from sweep.events import ON_U, ON_V, locate
+from sweep.kernels._parallel import parallel_allowed
+from sweep.kernels.events import ON_U, ON_V, locate
 from sweep.model import Status
-from sweep.stepper import N_DENSE, N_STAGES, dense_coefficients, power_kind, ppow, rhs, rk_step
-from sweep.stepsize import (base_step, damping_limited, damping_step, graded_step, grading,
+from sweep.kernels.stepper import N_DENSE, N_STAGES, dense_coefficients, power_kind, ppow, rhs, rk_step
+from sweep.kernels.stepsize import (base_step, damping_limited, damping_step, graded_step, grading,
                             needs_grading)
 
 __all__ = ["integrate_arrays", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL"]
 
-#: Steps per half period of the stiffest linearised motion (see :mod:`sweep.stepsize`).
+#: Steps per half period of the stiffest linearised motion (see :mod:`sweep.kernels.stepsize`).
 DEFAULT_STEPS = 96
 #: Step budget per point (all Runge-Kutta steps, refinements included).
 DEFAULT_MAX_STEPS = 200_000
@@ -94,7 +94,7 @@ def _accel(u, v, alpha, beta, gamma, gtilde, ka, kd):
 
 @nb.njit(inline="always")
 def _dissipated(u, v, r, beta, gamma, kb):
-    """Energy dissipated so far, ``q = gamma v u_+^beta + r`` (see :func:`sweep.stepper.rhs`)."""
+    """Energy dissipated so far, ``q = gamma v u_+^beta + r`` (see :func:`sweep.kernels.stepper.rhs`)."""
     return gamma * v * ppow(u, beta, kb) + r
 
 

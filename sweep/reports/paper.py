@@ -12,7 +12,7 @@ report's gamma grid::
 
 gamma_c the no-rebound threshold (24) (G = 0.1 for g~ <= 1 except SHC at g~ = 1), and the
 maximum absolute error per window ``gamma < 0.2 G``, ``0.2 G <= gamma <= 0.92 G``,
-``gamma > 0.92 G`` (see :mod:`sweep.paper_values` for why these are the report's windows).
+``gamma > 0.92 G`` (see :mod:`sweep.reports.paper_values` for why these are the report's windows).
 The report prints two windows for g~ <= 1 (``gamma < 0.02`` and ``gamma >= 0.02``, the
 latter the union of the last two) and three for g~ = 10.
 
@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sweep.paper_values import (FIGURES_CRITICAL, GAMMA_MAX, GRID_END_FACTOR, GTILDES,
+from sweep.reports.paper_values import (FIGURES_CRITICAL, GAMMA_MAX, GRID_END_FACTOR, GTILDES,
                                 PAPER_MODELS, TABLE_A, TABLE_B, TABLE_B_EDGES,
                                 TRANSCRIPTION_NOTES, WINDOW_FRACTIONS)
 from sweep.critical import RTOL
@@ -325,7 +325,7 @@ def paper_report(out="paper_report", n_gamma=1000, *, n_crit=None, steps=None, m
     steps : float, optional
         Integrator resolution (default: the package default).
     models : sequence of str, optional
-        Keys of :data:`sweep.paper_values.PAPER_MODELS` (default: all four).
+        Keys of :data:`sweep.reports.paper_values.PAPER_MODELS` (default: all four).
     figures : bool
         Write the PNG figures (tables only if False).
 

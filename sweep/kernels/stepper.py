@@ -4,7 +4,7 @@ The system in the Lipschitz form of Sec. 3 (state ``(u, w)``, velocity ``v = w -
 
     u' = w - gamma u_+^beta        w' = g~ - u_+^alpha
 
-The stage loop is written once against the tableau arrays of :mod:`sweep.tableau` (module
+The stage loop is written once against the tableau arrays of :mod:`sweep.kernels.tableau` (module
 constants, which numba folds into the compiled code); step-size choice and event logic live
 elsewhere.
 """
@@ -15,7 +15,7 @@ import math
 import numba as nb
 import numpy as np
 
-from sweep.tableau import DORMAND_PRINCE_54
+from sweep.kernels.tableau import DORMAND_PRINCE_54
 
 __all__ = ["power_kind", "ppow", "rhs", "rk_step", "dense_coefficients", "dense_eval",
            "N_STAGES", "N_DENSE"]

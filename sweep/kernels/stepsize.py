@@ -38,7 +38,7 @@ import math
 
 import numba as nb
 
-from sweep.special import umax_undamped
+from sweep.kernels.special import umax_undamped
 
 __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "MAX_DEPTH_FACTOR", "base_step",
            "damping_limited", "damping_step", "grading", "needs_grading", "graded_step"]

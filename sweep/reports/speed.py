@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sweep.paper_values import PAPER_MODELS
+from sweep.reports.paper_values import PAPER_MODELS
 from sweep.reports import format_value, machine_description, machine_line, use_agg, write_table
 
 __all__ = ["speed_report", "sample_points", "scipy_user_cor", "time_at_error",
@@ -130,7 +130,7 @@ def time_at_error(errors, times, target):
 
 def _load_test_reference():
     """The test suite's DOP853 reference (tests/reference.py) when run from a checkout."""
-    path = Path(__file__).resolve().parents[1] / "tests" / "reference.py"
+    path = Path(__file__).resolve().parents[2] / "tests" / "reference.py"
     if not path.exists():
         return None
     try:
@@ -187,7 +187,7 @@ def speed_report(out="speed_report", *, n_points=20000, steps_list=STEPS_LIST,
         Points (a random subset) given to scipy, one at a time.
     scipy_settings : sequence of (method, rtols)
     model : str
-        Key of :data:`sweep.paper_values.PAPER_MODELS`.
+        Key of :data:`sweep.reports.paper_values.PAPER_MODELS`.
     crosscheck : callable, optional
         ``f(alpha, beta, gamma, gtilde) -> e`` for the reference check; default the test
         suite's DOP853 reference if available, else :func:`scipy_user_cor` at rtol 1e-13.

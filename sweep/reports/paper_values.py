@@ -17,7 +17,7 @@ nothing here was guessed.
 How the report's windows were built
 -----------------------------------
 The report says the maxima were taken on 1000-point gamma grids. Its printed window edges
-fit one rule, used by :mod:`sweep.reports_paper`: the grid is
+fit one rule, used by :mod:`sweep.reports.paper`: the grid is
 ``linspace(0, min(0.1, 1.1 gamma_c), 1000)`` with gamma_c the no-rebound threshold (24) at
 that g~, and the windows are ``gamma < 0.2 G``, ``0.2 G <= gamma <= 0.92 G``,
 ``gamma > 0.92 G`` with ``G`` the grid's end. For g~ <= 1 this gives 0.02 (the printed

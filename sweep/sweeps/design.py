@@ -15,7 +15,7 @@ independent of the chunk size and lets an interrupted run resume at any chunk.
   (counter-based blocks of a seeded ``SeedSequence``).
 
 New design kinds (the physical "scene" of a later issue) add a builder to :data:`BUILDERS`
-under the same ``design.kind`` as their parser in :data:`sweep.config.DESIGN_KINDS`.
+under the same ``design.kind`` as their parser in :data:`sweep.sweeps.config.DESIGN_KINDS`.
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ import warnings
 import numpy as np
 from scipy.stats import qmc
 
-from sweep.config import PARAMETERS, DoESpec, GridSpec
+from sweep.sweeps.config import PARAMETERS, DoESpec, GridSpec
 
 __all__ = ["Design", "GridDesign", "DoEDesign", "build", "chunk_bounds", "BUILDERS"]
 

@@ -6,14 +6,14 @@ Three reports, each a plain function (used by the ``sweep report`` command line)
     Heat maps of ``|e_method - e_numeric|`` over (gamma, g~) for every approximation stored
     in a dataset written by ``sweep run``, with the numerical stick/rebound boundary and the
     report's approximate boundary (24) drawn over them, and a table of the maximum and median
-    absolute error per region. See :mod:`sweep.reports_accuracy`.
+    absolute error per region. See :mod:`sweep.reports.accuracy`.
 :func:`paper_report` (``sweep report paper [--out DIR]``)
     The report's Tables 2-5 recomputed next to the published numbers, and its Figures 8-11
-    (g~_c against gamma). See :mod:`sweep.reports_paper`.
+    (g~_c against gamma). See :mod:`sweep.reports.paper`.
 :func:`speed_report` (``sweep report speed [--out DIR]``)
     Work-precision: points per second against the error for the integrator at several
     resolutions, every approximation and scipy's ``solve_ivp`` as a peer. See
-    :mod:`sweep.reports_speed`.
+    :mod:`sweep.reports.speed`.
 
 matplotlib (Agg backend) and xarray are imported inside the functions, so ``import sweep``
 stays fast. Every report writes PNG figures and tables (CSV and markdown) into its output
@@ -35,23 +35,23 @@ __all__ = ["accuracy_report", "paper_report", "speed_report", "add_report_comman
 
 def accuracy_report(path, out=None, **kwargs):
     """Accuracy maps and per-region error table of a sweep dataset; see
-    :func:`sweep.reports_accuracy.accuracy_report`."""
-    from sweep.reports_accuracy import accuracy_report as run
+    :func:`sweep.reports.accuracy.accuracy_report`."""
+    from sweep.reports.accuracy import accuracy_report as run
 
     return run(path, out, **kwargs)
 
 
 def paper_report(out="paper_report", n_gamma=1000, **kwargs):
     """The report's Tables 2-5 and Figures 8-11; see
-    :func:`sweep.reports_paper.paper_report`."""
-    from sweep.reports_paper import paper_report as run
+    :func:`sweep.reports.paper.paper_report`."""
+    from sweep.reports.paper import paper_report as run
 
     return run(out, n_gamma=n_gamma, **kwargs)
 
 
 def speed_report(out="speed_report", **kwargs):
-    """Work-precision plot and table; see :func:`sweep.reports_speed.speed_report`."""
-    from sweep.reports_speed import speed_report as run
+    """Work-precision plot and table; see :func:`sweep.reports.speed.speed_report`."""
+    from sweep.reports.speed import speed_report as run
 
     return run(out, **kwargs)
 
@@ -107,7 +107,7 @@ def add_report_commands(subparsers):
     argparse.ArgumentParser
         The ``report`` parser.
     """
-    from sweep.paper_values import PAPER_MODELS
+    from sweep.reports.paper_values import PAPER_MODELS
 
     rep = subparsers.add_parser(
         "report", help="accuracy maps, the report's tables and figures, speed against error",

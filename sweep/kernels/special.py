@@ -1,6 +1,6 @@
 """Jitted special functions behind the report's closed forms (Sections 4-5, Appendices A-C).
 
-Scalar ``numba`` functions, called from the kernels of :mod:`sweep.approx` (and from Python
+Scalar ``numba`` functions, called from the kernels of :mod:`sweep.kernels.approx` (and from Python
 for tests). All quantities are dimensionless ("1").
 
 - :func:`beta_fn` -- Euler's Beta function ``B(x, y)`` (Def. 1);

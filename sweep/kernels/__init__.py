@@ -1,0 +1,4 @@
+"""Floor 1: the compiled kernels (numba only; no xarray, files or Dask).
+
+Imports nothing from ``sweep`` above :mod:`sweep.registry`.
+"""

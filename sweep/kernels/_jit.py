@@ -1,0 +1,137 @@
+"""Where compiled kernels are cached, keyed by the source they are compiled from.
+
+numba's ``cache=True`` checks only the modification time of the file that defines a cached
+function, not of the modules it calls into: an edit to the step function would keep serving
+the old machine code. Kernel modules are therefore imported (and their dispatchers created,
+which is when numba picks the cache location) while ``numba.config.CACHE_DIR`` points to a
+directory named after a hash of the kernel sources and the numba version.
+
+The kernel sources are the modules of :mod:`sweep.kernels` and every package module they
+import, transitively, whatever the import form (``import sweep.x``, ``from sweep import x``,
+``from sweep.x import y``, ``from . import x``, ``from .x import y``), read from the syntax
+tree, not by pattern. Editing the CLI, the store or the reports does not invalidate compiled
+kernels. The user's own setting is restored right after.
+
+Owns: the kernel cache location. May import: nothing from ``sweep``.
+"""
+from __future__ import annotations
+
+import ast
+import contextlib
+import hashlib
+import os
+from collections.abc import Iterator
+from pathlib import Path
+
+import numba
+
+__all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "package_imports"]
+
+_PACKAGE_DIR = Path(__file__).resolve().parents[1]
+_PACKAGE = _PACKAGE_DIR.name
+_KERNELS = "kernels"
+
+
+def _module_files(root: Path) -> dict[str, Path]:
+    """Dotted module name -> file, for every module of the package under ``root``."""
+    files = {}
+    for path in root.rglob("*.py"):
+        parts = path.relative_to(root.parent).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        files[".".join(parts)] = path
+    return files
+
+
+def _resolve(module: str, is_package: bool, node: ast.ImportFrom) -> str:
+    """Absolute name of the module an ``ImportFrom`` node reads from."""
+    if not node.level:
+        return node.module or ""
+    base = module.split(".")
+    if not is_package:
+        base = base[:-1]
+    base = base[:len(base) - node.level + 1] if node.level > 1 else base
+    return ".".join(base + ([node.module] if node.module else []))
+
+
+def package_imports(module: str, path: Path, known: dict[str, Path]) -> set[str]:
+    """Package modules that ``module`` (source at ``path``) imports, in any form.
+
+    ``from P import x`` counts ``P.x`` when that is a module of the package, and ``P``
+    itself otherwise (a name defined in ``P``'s ``__init__``).
+    """
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    is_package = path.name == "__init__.py"
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = _resolve(module, is_package, node)
+            names = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in known else base
+                     for alias in node.names]
+        else:
+            continue
+        for name in names:
+            while name and name not in known:
+                name = name.rpartition(".")[0]
+            if name and name != module:
+                found.add(name)
+    return found
+
+
+def kernel_sources(root: Path | None = None) -> list[Path]:
+    """Files whose text can change compiled code: the kernel modules and the package
+    modules they import, transitively (the package ``__init__`` only for names it defines).
+
+    Parameters
+    ----------
+    root : Path, optional
+        Package directory (default: this installed package); tests pass a copy.
+    """
+    root = Path(root) if root is not None else _PACKAGE_DIR
+    known = _module_files(root)
+    package = root.name
+    todo = [m for m in known if m.startswith(f"{package}.{_KERNELS}")]
+    seen: set[str] = set()
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        todo.extend(package_imports(name, known[name], known))
+    return sorted(known[name] for name in seen)
+
+
+def source_hash(root: Path | None = None) -> str:
+    """Hash of the kernel sources (:func:`kernel_sources`) and the numba version."""
+    root = Path(root) if root is not None else _PACKAGE_DIR
+    h = hashlib.sha256(numba.__version__.encode())
+    for path in kernel_sources(root):
+        h.update(path.relative_to(root).as_posix().encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def cache_dir() -> Path:
+    """Cache directory for this exact source tree (``$NUMBA_CACHE_DIR`` or ``~/.cache``)."""
+    base = os.environ.get("NUMBA_CACHE_DIR") or os.environ.get("XDG_CACHE_HOME") \
+        or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "sweep-numba" / source_hash()
+
+
+@contextlib.contextmanager
+def kernel_cache() -> Iterator[None]:
+    """Context in which ``@njit(cache=True)`` dispatchers cache under :func:`cache_dir`."""
+    previous = numba.config.CACHE_DIR
+    try:
+        path = cache_dir()
+        path.mkdir(parents=True, exist_ok=True)
+        numba.config.CACHE_DIR = str(path)
+    except OSError:  # unwritable home: numba falls back to its own locations
+        yield
+        return
+    try:
+        yield
+    finally:
+        numba.config.CACHE_DIR = previous

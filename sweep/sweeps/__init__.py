@@ -1,0 +1,1 @@
+"""Floor 4: sweeps -- configurations, designs and the chunked runner."""
