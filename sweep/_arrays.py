@@ -3,19 +3,35 @@
 Kernels take flat, contiguous float64 arrays of one length; the front ends broadcast their
 arguments (numpy rules), flatten them, and give the results back in the broadcast shape.
 A call whose inputs are all scalars is a *scalar call*: invalid values raise ``ValueError``
-there, while inside arrays they only mark their own point invalid (``e = NaN``).
+there (the domain is :data:`sweep.registry.PARAMETERS`), while inside arrays they only mark
+their own point invalid (``e = NaN``).
+
+Owns: broadcasting of the front ends. May import: :mod:`sweep.registry`.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
+
+from sweep import registry
 
 __all__ = ["Broadcast", "broadcast_points"]
 
 
 class Broadcast:
-    """Flattened, broadcast parameters and the shape to restore results to."""
+    """Flattened, broadcast parameters and the shape to restore results to.
 
-    def __init__(self, names, arrays):
+    Parameters
+    ----------
+    names : sequence of str
+        Parameter names (keys of :data:`sweep.registry.PARAMETERS`).
+    arrays : sequence of array_like
+        Their values, broadcast together.
+    """
+
+    def __init__(self, names: Sequence[str], arrays: Sequence[Any]):
         arrays = [np.asarray(a, dtype=np.float64) for a in arrays]
         self.scalar = all(a.ndim == 0 for a in arrays)
         bcast = np.broadcast_arrays(*arrays)
@@ -24,43 +40,26 @@ class Broadcast:
         self.flat = [np.ascontiguousarray(b.reshape(-1)) for b in bcast]
 
     @property
-    def size(self):
+    def size(self) -> int:
         return self.flat[0].size if self.flat else 0
 
-    def restore(self, arr):
+    def restore(self, arr: Any) -> Any:
         """Reshape a flat result to the broadcast shape (a Python scalar for scalar calls)."""
         out = np.asarray(arr).reshape(self.shape)
         if self.scalar:
             return out[()].item()
         return out
 
-    def raise_if_invalid(self, rules):
-        """For scalar calls only: raise ``ValueError`` naming the first value a rule rejects.
-
-        ``rules`` maps a parameter name to ``(predicate_ok, description)``.
-        """
+    def raise_if_invalid(self) -> None:
+        """For scalar calls only: raise ``ValueError`` naming the first value outside the
+        domain of :data:`sweep.registry.PARAMETERS`."""
         if not self.scalar:
             return
         for name, value in zip(self.names, self.flat):
-            v = float(value[0])
-            if not np.isfinite(v):
-                raise ValueError(f"{name} must be finite, got {v!r}")
-            if name in rules:
-                ok, rule = rules[name]
-                if not ok(v):
-                    raise ValueError(f"{name} must be {rule}, got {v!r}")
+            registry.check_scalar(name, float(value[0]))
 
 
-#: Domain of the scaled parameters (Assumption 1 of the report, and physical signs).
-PARAMETER_RULES = {
-    "alpha": (lambda v: v >= 1.0, ">= 1 (uniqueness is not known below 1)"),
-    "beta": (lambda v: v >= 1.0, ">= 1 (uniqueness is not known below 1)"),
-    "gamma": (lambda v: v >= 0.0, ">= 0"),
-    "gtilde": (lambda v: v >= 0.0, ">= 0 (a compressive load)"),
-}
-
-
-def broadcast_points(alpha, beta, gamma, gtilde):
+def broadcast_points(alpha: Any, beta: Any, gamma: Any, gtilde: Any) -> Broadcast:
     """Broadcast ``(alpha, beta, gamma, gtilde)`` and validate a scalar call.
 
     Returns
@@ -68,6 +67,6 @@ def broadcast_points(alpha, beta, gamma, gtilde):
     Broadcast
         With ``flat = [alpha, beta, gamma, gtilde]`` as contiguous float64 1-D arrays.
     """
-    b = Broadcast(("alpha", "beta", "gamma", "gtilde"), (alpha, beta, gamma, gtilde))
-    b.raise_if_invalid(PARAMETER_RULES)
+    b = Broadcast(registry.PARAMETER_NAMES, (alpha, beta, gamma, gtilde))
+    b.raise_if_invalid()
     return b

@@ -1,75 +1,66 @@
-"""Public, vectorised entry points: :func:`integrate` and :func:`cor`.
+"""Public, vectorised entry points: :func:`integrate`, :func:`cor` and the report's coefficients.
 
 Arguments broadcast with numpy rules. Inside arrays an invalid point (alpha < 1, beta < 1,
-gamma < 0, g~ < 0, NaN or inf) gets ``e = NaN`` and status INVALID without spoiling the
-others; a call with scalars only raises ``ValueError`` naming the bad value instead.
+gamma < 0, g~ < 0, NaN or inf: the domain of :data:`sweep.registry.PARAMETERS`) gets
+``e = NaN`` and status INVALID without spoiling the others; a call with scalars only raises
+``ValueError`` naming the bad value instead. Methods, their options and the integrator's
+output fields are read from :mod:`sweep.registry`.
+
+Owns: broadcasting, validation and dispatch of the public functions. May import: registry,
+kernels, :mod:`sweep._arrays`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import dataclasses
 from typing import Any
 
 import numpy as np
 
-from sweep._arrays import broadcast_points
+from sweep import registry
+from sweep._arrays import Broadcast, broadcast_points
+from sweep.kernels import approx as _approx
 from sweep.kernels.integrator import (DEFAULT_MAX_STEPS, DEFAULT_REST_TOL, DEFAULT_STEPS,
-                              integrate_arrays)
-from sweep.model import Status
+                                      integrate_arrays)
+from sweep.registry import Status
 
 __all__ = ["integrate", "cor", "cor_with_status", "IntegrationResult", "METHODS",
-           "APPROXIMATIONS", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL"]
+           "APPROXIMATIONS", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL",
+           "coefficients", "coefficients_at_zero", "first_order_coefficients",
+           "large_gtilde_coefficient", "SP_C2"]
 
-#: The report's closed-form approximations (Sections 4-5), see :mod:`sweep.kernels.approx`.
-APPROXIMATIONS = ("ord1", "sp", "large_gtilde", "ord2_numint", "ord2_approx")
-#: Every method :func:`cor` accepts.
-METHODS = ("numeric",) + APPROXIMATIONS
-
-
-@dataclass(frozen=True)
-class IntegrationResult:
-    """Per-point results of :func:`integrate` (arrays in the broadcast shape of the inputs,
-    Python scalars -- and a :class:`~sweep.model.Status` -- for a scalar call).
-
-    Attributes
-    ----------
-    e : ndarray of float64
-        Coefficient of restitution ``-v(T_f)`` [1], eq. (3); 0 when the bead does not rebound.
-    sticks : ndarray of bool
-        The bead does not rebound (status STUCK or AT_REST).
-    t_f : ndarray of float64
-        Scaled time at which the impact ended [1] (detachment, or when sticking / rest was
-        established); multiply by ``T`` of (2) for seconds.
-    u_max : ndarray of float64
-        Maximum compression [1] (multiply by ``delta = v0 T`` for metres); NaN where the
-        outcome was decided before it was reached (overdamped creep).
-    n_steps : ndarray of int64
-        Runge-Kutta steps taken, event refinement included.
-    status : ndarray of int8
-        :class:`~sweep.model.Status` values.
-    """
-
-    e: Any
-    sticks: Any
-    t_f: Any
-    u_max: Any
-    n_steps: Any
-    status: Any
+#: The report's closed-form approximations (Sections 4-5) built into the package.
+APPROXIMATIONS = registry.approximations()
+#: Every built-in method :func:`cor` accepts (``registry.register_method`` adds more).
+METHODS = tuple(registry.METHODS)
+#: Schwager-Poeschel's second-order coefficient for KK at g~ = 0, (30): -(9/4) c2.
+SP_C2 = _approx.SP_C2
 
 
-def _check_settings(steps, rest_tol, max_steps):
-    steps = DEFAULT_STEPS if steps is None else steps
-    max_steps = DEFAULT_MAX_STEPS if max_steps is None else max_steps
-    if not (np.isfinite(steps) and steps >= 2):
-        raise ValueError(f"steps must be a number >= 2 (steps per half period), got {steps!r}")
-    if not (np.isfinite(rest_tol) and rest_tol > 0):
-        raise ValueError(f"rest_tol must be > 0, got {rest_tol!r}")
-    if int(max_steps) != max_steps or max_steps < 1:
-        raise ValueError(f"max_steps must be a positive integer, got {max_steps!r}")
-    return float(steps), float(rest_tol), int(max_steps)
+def _result_doc() -> str:
+    lines = ["Per-point results of :func:`integrate` (arrays in the broadcast shape of the",
+             "inputs; Python scalars -- and a :class:`~sweep.registry.Status` -- for a scalar",
+             "call). Its attributes are the fields of :data:`sweep.registry.FIELDS`:", ""]
+    for f in registry.FIELDS.values():
+        lines.append(f"``{f.name}`` ({f.dtype.name}, units {f.units}): {f.long_name}; "
+                     f"{f.description}.")
+    return "\n".join(lines)
 
 
-def integrate(alpha, beta, gamma, gtilde, *, steps=None, rest_tol=DEFAULT_REST_TOL,
-              max_steps=None, parallel=None):
+IntegrationResult = dataclasses.make_dataclass(
+    "IntegrationResult", [(name, Any) for name in registry.FIELDS], frozen=True,
+    namespace={"__doc__": _result_doc(), "__module__": __name__})
+
+
+def _integrator_options(options: dict[str, Any]) -> dict[str, Any]:
+    """Validated integrator keywords (``steps``, ``rest_tol``, ``max_steps``), defaults filled."""
+    out = registry.METHODS["numeric"].check_options(options)
+    return {"steps": float(out["steps"]), "rest_tol": float(out["rest_tol"]),
+            "max_steps": int(out["max_steps"])}
+
+
+def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, steps: float | None = None,
+              rest_tol: float = DEFAULT_REST_TOL, max_steps: int | None = None,
+              parallel: bool | None = None) -> IntegrationResult:
     """Numerical coefficient of restitution by a fixed-step Runge-Kutta 5(4) march.
 
     Integrates the scaled problem (2) in the Lipschitz form (4) with the three phases of the
@@ -98,38 +89,48 @@ def integrate(alpha, beta, gamma, gtilde, *, steps=None, rest_tol=DEFAULT_REST_T
     -------
     IntegrationResult
     """
-    steps, rest_tol, max_steps = _check_settings(steps, rest_tol, max_steps)
+    opts = _integrator_options({"steps": steps, "rest_tol": rest_tol, "max_steps": max_steps})
     b = broadcast_points(alpha, beta, gamma, gtilde)
-    out = integrate_arrays(*b.flat, steps, rest_tol, max_steps, parallel=parallel)
-    status = out["status"]
-    sticks = (status == Status.STUCK) | (status == Status.AT_REST)
-    res = {k: b.restore(v) for k, v in out.items()}
-    res["sticks"] = b.restore(sticks)
+    out = integrate_arrays(*b.flat, parallel=parallel, **opts)
+    for f in registry.FIELDS.values():
+        if f.derived is not None:
+            out[f.name] = f.derived(out)
+    res = {name: b.restore(out[name]) for name in registry.FIELDS}
     if b.scalar:
         res["status"] = Status(res["status"])
         res["n_steps"] = int(res["n_steps"])
     return IntegrationResult(**res)
 
 
-def cor_with_status(alpha, beta, gamma, gtilde, method="numeric", **options):
-    """Like :func:`cor`, also returning the per-point :class:`~sweep.model.Status` codes."""
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    if method == "numeric":
+def _undefined_raise(m: registry.Method, b: Broadcast) -> None:
+    raise ValueError(f"method {m.name!r} is not defined at alpha={float(b.flat[0][0])!r}, "
+                     f"beta={float(b.flat[1][0])!r} (see sweep.registry.METHODS)")
+
+
+def cor_with_status(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
+                    **options: Any) -> tuple[Any, Any]:
+    """Like :func:`cor`, also returning the per-point :class:`~sweep.registry.Status` codes."""
+    m = registry.method(method)
+    if m.integrates:
         r = integrate(alpha, beta, gamma, gtilde, **options)
         return r.e, r.status
-    from sweep.kernels import approx  # noqa: PLC0415 -- keeps the integrator usable on its own
-
+    options = m.check_options(options)
     b = broadcast_points(alpha, beta, gamma, gtilde)
-    e, status = approx.approx_cor(method, *b.flat, **options)
+    e, status = m.resolve()(*b.flat, **options)
+    undefined = ~m.defined_at(b.flat[0], b.flat[1])
+    if undefined.any():
+        if b.scalar:
+            _undefined_raise(m, b)
+        e = np.where(undefined, np.nan, e)
+        status = np.where(undefined, np.int8(Status.INVALID), status).astype(np.int8)
     if b.scalar and status[0] == Status.INVALID:
-        raise ValueError(f"method {method!r} is not defined at alpha={float(b.flat[0][0])!r}, "
-                         f"beta={float(b.flat[1][0])!r} (see sweep.kernels.approx)")
+        _undefined_raise(m, b)
     st = b.restore(status)
     return b.restore(e), (Status(st) if b.scalar else st)
 
 
-def cor(alpha, beta, gamma, gtilde, method="numeric", **options):
+def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
+        **options: Any) -> Any:
     """Coefficient of restitution ``e`` [1] by the numerical march or an approximation.
 
     Parameters
@@ -137,16 +138,86 @@ def cor(alpha, beta, gamma, gtilde, method="numeric", **options):
     alpha, beta, gamma, gtilde : array_like
         Scaled parameters (see :func:`integrate`), broadcast together.
     method : str
-        ``"numeric"`` (:func:`integrate`), or one of the report's approximations:
-        ``"ord1"`` (22), ``"sp"`` (25), (30), ``"large_gtilde"`` (23),
-        ``"ord2_numint"`` and ``"ord2_approx"`` (Prop. 2 with I, Q by quadrature or by the
-        Chebyshev-Beta approximation, option ``n``).
+        A name of :data:`sweep.registry.METHODS`: ``"numeric"`` (:func:`integrate`), or one
+        of the report's approximations: ``"ord1"`` (22), ``"sp"`` (25), (30),
+        ``"large_gtilde"`` (23), ``"ord2_numint"`` and ``"ord2_approx"`` (Prop. 2 with I, Q by
+        quadrature or by the Chebyshev-Beta approximation, option ``n``).
     **options
-        Passed to :func:`integrate` (``steps``, ``rest_tol``, ``max_steps``) or to the
-        approximation (``n``).
+        The method's options (:attr:`sweep.registry.Method.options`): ``steps``,
+        ``rest_tol``, ``max_steps`` for ``"numeric"``; ``n`` for ``"ord2_approx"``.
 
     Returns
     -------
     ndarray of float64 (float for a scalar call)
     """
     return cor_with_status(alpha, beta, gamma, gtilde, method, **options)[0]
+
+
+# --------------------------------------------------------------------------- coefficients
+
+def _pair(which: str, names: tuple[str, ...], values: tuple[Any, ...], n: int = 21) -> tuple[Any, Any]:
+    """Broadcast, validate a scalar call, evaluate a pair of coefficients."""
+    b = Broadcast(names, values)
+    b.raise_if_invalid()
+    alpha, beta = b.flat[0], b.flat[1]
+    gtilde = b.flat[2] if len(b.flat) > 2 else np.zeros_like(alpha)
+    x1, x2, status = _approx.coefficient_arrays(which, alpha, beta, gtilde, n)
+    if b.scalar and status[0] != Status.OK:
+        raise ValueError(f"gtilde is out of the range of I, Q (theta of (43) underflows), "
+                         f"got {float(gtilde[0])!r}")
+    return b.restore(x1), b.restore(x2)
+
+
+def coefficients(alpha: Any, beta: Any, gtilde: Any, method: str = "numint",
+                 n: int = 21) -> tuple[Any, Any]:
+    """The g~-dependent coefficients ``I(g~)``, ``Q(g~)`` of Prop. 2 [1].
+
+    ::
+
+        I = 2 int_0^{u_M} [1 + 2(g~ u - u^(a+1)/(a+1))]^(+1/2) u^(b-1) du
+        Q =   int_0^{u_M} [1 + 2(g~ u - u^(a+1)/(a+1))]^(-1/2) u^(b-1) du
+
+    (Prop. 2's I, twice the one of Sec. 4.1.)
+
+    Parameters
+    ----------
+    alpha, beta, gtilde : array_like
+        Exponents [1] (>= 1) and scaled load [1] (>= 0), broadcast together.
+    method : {"numint", "approx"}
+        Gauss quadrature (relative error ~1e-15) or the report's Chebyshev-Beta
+        approximation (47)-(53) of odd order ``n`` (~1e-3).
+    n : int, default 21
+
+    Returns
+    -------
+    I, Q : ndarray or float
+        NaN at invalid points of an array call; a scalar call with an invalid value raises
+        ``ValueError`` naming it.
+    """
+    if method not in ("numint", "approx"):
+        raise ValueError(f"method must be one of ('numint', 'approx'), got {method!r}")
+    n = registry.METHODS["ord2_approx"].check_options({"n": n})["n"]
+    return _pair(method, ("alpha", "beta", "gtilde"), (alpha, beta, gtilde), n)
+
+
+def coefficients_at_zero(alpha: Any, beta: Any) -> tuple[Any, Any]:
+    """Exact ``I(0)``, ``Q(0)`` [1] of (39), (40) (KK: 1.1534489, 1.2687937)."""
+    return _pair("zero", ("alpha", "beta"), (alpha, beta))
+
+
+def first_order_coefficients(alpha: Any, beta: Any) -> tuple[Any, Any]:
+    """``C0``, ``C1`` [1] of the first-order approximation (22) (KK: 1.7301733, 3).
+
+    ``C0 = b ((a+1)/2)^((b-a-1)/(a+1)) B(b/(a+1), 3/2)`` and
+    ``C1 = b ((a+1)/2)^((b-a)/(a+1)) B((b+1)/(a+1), 1/2)``; broadcast over alpha, beta.
+    """
+    return _pair("first", ("alpha", "beta"), (alpha, beta))
+
+
+def large_gtilde_coefficient(alpha: Any, beta: Any) -> tuple[Any, Any]:
+    """``C`` and the exponent ``r`` [1] of the large-g~ approximation (23), (24).
+
+    ``e^2 = 1 - 2 gamma C g~^r`` with ``r = b/a + 1/(2a) + 1/2`` and
+    ``C = 2 sqrt(2) (b/a) (a+1)^(b/a + 1/(2a)) B((b + 1/2)/a, 3/2)`` (KK: 4.403986, 11/6).
+    """
+    return _pair("large", ("alpha", "beta"), (alpha, beta))

@@ -17,14 +17,19 @@ Above the critical scaled load ``g~_c(alpha, beta, gamma)`` (resp. damping
     Returns ``0.0`` where it does not rebound even at 1e-12 of the approximate threshold,
     ``inf`` where it still rebounds at 1e12 times it (e.g. gamma at g~ = 0 for beta > alpha),
     and NaN where the integrator could not decide (budget exhausted) during the search.
+
+Owns: the no-rebound thresholds. May import: registry, :mod:`sweep.api` (the floor below).
 """
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-from sweep._arrays import PARAMETER_RULES, Broadcast
-from sweep.kernels.approx import large_gtilde_coefficient
-from sweep.model import Status
+from sweep import registry
+from sweep._arrays import Broadcast
+from sweep.api import integrate, large_gtilde_coefficient
+from sweep.registry import Status
 
 __all__ = ["critical_gtilde", "critical_gamma", "RTOL"]
 
@@ -35,27 +40,15 @@ _MAX_EXPAND = 20     # 4^20 ~ 1e12 either way from the approximate threshold
 _METHODS = ("approx", "numeric")
 
 
-def _check_method(method):
-    if method not in _METHODS:
-        raise ValueError(f"method must be one of {_METHODS}, got {method!r}")
-
-
-def _valid(alpha, beta, x):
-    """Points inside the domain: exponents >= 1 (Assumption 1), x (gamma or g~) >= 0, finite."""
-    return ((alpha >= 1.0) & (beta >= 1.0) & np.isfinite(alpha) & np.isfinite(beta)
-            & np.isfinite(x) & (x >= 0.0))
-
-
 def _constants(alpha, beta):
-    valid = (alpha >= 1.0) & (beta >= 1.0)
+    """C and r of (23), NaN where the exponents are invalid."""
+    valid = registry.PARAMETERS["alpha"].ok(alpha) & registry.PARAMETERS["beta"].ok(beta)
     c, r = large_gtilde_coefficient(np.where(valid, alpha, 1.0), np.where(valid, beta, 1.0))
     return np.where(valid, c, np.nan), np.where(valid, r, np.nan)
 
 
 def _rebounds(alpha, beta, gamma, gtilde, options):
-    """Per point: True (rebound, e > 0), False (no rebound), None -> NaN (undecided)."""
-    from sweep.api import integrate  # noqa: PLC0415 -- the integrator is only needed here
-
+    """Per point: whether it rebounds (e > 0), and whether the integrator decided it."""
     res = integrate(alpha, beta, gamma, gtilde, **options)
     status = np.asarray(res.status)
     e = np.asarray(res.e)
@@ -116,7 +109,39 @@ def _threshold(evaluate, start, fallback_start):
     return out
 
 
-def critical_gtilde(alpha, beta, gamma, method="approx", **integrator_options):
+def _critical(unknown, alpha, beta, known, method, options):
+    """Threshold of ``unknown`` ("gtilde" or "gamma") given the other one, ``known``."""
+    if method not in _METHODS:
+        raise ValueError(f"method must be one of {_METHODS}, got {method!r}")
+    other = "gamma" if unknown == "gtilde" else "gtilde"
+    b = Broadcast(("alpha", "beta", other), (alpha, beta, known))
+    b.raise_if_invalid()
+    a, be, x = b.flat
+    point = {"alpha": a, "beta": be, other: x, unknown: 0.0}
+    valid = registry.valid_points(*(point[n] for n in registry.PARAMETER_NAMES))
+    c, r = _constants(a, be)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # (24): g~_c = (1/(2 gamma C))^(1/r), equivalently gamma_c = 1/(2 C g~^r).
+        approx = np.where(valid, (1.0 / (2.0 * x * c)) ** (1.0 / r) if unknown == "gtilde"
+                          else 1.0 / (2.0 * c * x ** r), np.nan)
+    if method == "approx" or not valid.any():
+        return b.restore(approx)
+
+    def evaluate(trial, idx):
+        pt = {"alpha": a[idx], "beta": be[idx], other: x[idx], unknown: trial}
+        return _rebounds(*(pt[n] for n in registry.PARAMETER_NAMES), options)
+
+    if unknown == "gtilde":
+        # gamma = 0 never sticks: g~_c = inf; the search starts from (24) elsewhere.
+        out = _threshold(evaluate, np.where(x > 0.0, approx, np.nan), np.nan)
+        out[valid & (x == 0.0)] = np.inf
+    else:
+        out = _threshold(evaluate, approx, np.where(valid, 1.0, np.nan))
+    return b.restore(out)
+
+
+def critical_gtilde(alpha: Any, beta: Any, gamma: Any, method: str = "approx",
+                    **integrator_options: Any) -> Any:
     """Critical scaled load ``g~_c`` [1] above which the bead does not rebound.
 
     Parameters
@@ -142,27 +167,11 @@ def critical_gtilde(alpha, beta, gamma, method="approx", **integrator_options):
     ValueError
         Unknown method; a scalar call with an invalid value (naming it).
     """
-    _check_method(method)
-    b = Broadcast(("alpha", "beta", "gamma"), (alpha, beta, gamma))
-    b.raise_if_invalid(PARAMETER_RULES)
-    a, be, g = b.flat
-    valid = _valid(a, be, g)
-    c, r = _constants(a, be)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        approx = np.where(valid, (1.0 / (2.0 * g * c)) ** (1.0 / r), np.nan)
-    if method == "approx" or not valid.any():
-        return b.restore(approx)
-    approx = np.where(g > 0.0, approx, np.nan)     # gamma = 0: never sticks, inf below
-
-    def evaluate(x, idx):
-        return _rebounds(a[idx], be[idx], g[idx], x, integrator_options)
-
-    out = _threshold(evaluate, approx, np.nan)
-    out[valid & (g == 0.0)] = np.inf
-    return b.restore(out)
+    return _critical("gtilde", alpha, beta, gamma, method, integrator_options)
 
 
-def critical_gamma(alpha, beta, gtilde, method="approx", **integrator_options):
+def critical_gamma(alpha: Any, beta: Any, gtilde: Any, method: str = "approx",
+                   **integrator_options: Any) -> Any:
     """Critical scaled damping ``gamma_c`` [1] above which the bead does not rebound.
 
     Parameters
@@ -187,19 +196,4 @@ def critical_gamma(alpha, beta, gtilde, method="approx", **integrator_options):
     ValueError
         Unknown method; a scalar call with an invalid value (naming it).
     """
-    _check_method(method)
-    b = Broadcast(("alpha", "beta", "gtilde"), (alpha, beta, gtilde))
-    b.raise_if_invalid(PARAMETER_RULES)
-    a, be, gt = b.flat
-    valid = _valid(a, be, gt)
-    c, r = _constants(a, be)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        approx = np.where(valid, 1.0 / (2.0 * c * gt ** r), np.nan)
-    if method == "approx" or not valid.any():
-        return b.restore(approx)
-
-    def evaluate(x, idx):
-        return _rebounds(a[idx], be[idx], x, gt[idx], integrator_options)
-
-    out = _threshold(evaluate, np.where(valid, approx, np.nan), np.where(valid, 1.0, np.nan))
-    return b.restore(out)
+    return _critical("gamma", alpha, beta, gtilde, method, integrator_options)

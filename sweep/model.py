@@ -9,71 +9,27 @@ is reduced by the scaling (2) to the dimensionless problem::
     u'' + gamma d/dtau (u_+^beta) + u_+^alpha = g~,   u(0) = 0,  u'(0) = 1
 
 so that every downstream computation depends only on ``(alpha, beta, gamma, g~)``.
+
+Owns: the scaling of physical inputs and the array forms of the regime numbers. May import:
+registry, :mod:`sweep.kernels.contact` (the regime formulas live there, once).
 """
 from __future__ import annotations
 
-import enum
+from typing import Any
 
+import numba as nb
 import numpy as np
+
+from sweep import registry
+from sweep.kernels import contact
+from sweep.kernels._jit import kernel_cache
+from sweep.registry import MODELS, Status
 
 __all__ = ["Status", "scale", "equilibrium", "damping_ratio", "natural_frequency",
            "check_exponents", "MODELS"]
 
-#: The report's named contact laws: name -> (alpha, beta).
-MODELS = {
-    "linear": (1.0, 1.0),
-    "hertz": (1.5, 1.0),
-    "tti": (1.5, 1.25),
-    "kk": (1.5, 1.5),
-    "shc": (1.5, 2.5),
-}
 
-
-class Status(enum.IntEnum):
-    """Why the computation of one point ended.
-
-    The integer values are stored in datasets (``status`` variable); never renumber them.
-    """
-
-    #: The bead detached (u = 0 with v < 0): ``e = -v`` at detachment.
-    OK = 0
-    #: The bead does not rebound (v = 0 with 0 < u <= u-bar in phase 3, or its energy fell
-    #: below the floor level, from which it can never return to u = 0): ``e = 0``.
-    STUCK = 1
-    #: Converged to rest, ``max(|u - u-bar|, |v|) < rest_tol`` (report, Sec. 3): ``e = 0``.
-    AT_REST = 2
-    #: The step budget ran out before the outcome was decided. ``e = sqrt(2 H)``, the bound
-    #: on the rebound speed set by the energy still available, not a converged value.
-    BUDGET_EXHAUSTED = 3
-    #: Invalid input (alpha < 1, beta < 1, gamma < 0, g~ < 0, non-finite, or an
-    #: approximation used outside its domain): ``e = NaN``.
-    INVALID = 4
-
-
-def _as_float_array(name, value):
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a real number or array of them, got {value!r}") from exc
-    return arr
-
-
-def _first_bad(arr, bad):
-    """Return the first offending value of ``arr`` where ``bad`` is true."""
-    idx = np.flatnonzero(np.broadcast_to(bad, arr.shape))[0]
-    return arr.reshape(-1)[idx]
-
-
-def _require(name, arr, ok, rule):
-    finite = np.isfinite(arr)
-    if not finite.all():
-        raise ValueError(f"{name} must be finite, got {_first_bad(arr, ~finite)!r}")
-    good = ok(arr)
-    if not np.all(good):
-        raise ValueError(f"{name} must be {rule}, got {_first_bad(arr, ~good)!r}")
-
-
-def check_exponents(alpha, beta):
+def check_exponents(alpha: Any, beta: Any) -> tuple[np.ndarray, np.ndarray]:
     """Validate contact exponents (Assumption 1 of the report: alpha >= 1, beta >= 1).
 
     Raises
@@ -81,11 +37,7 @@ def check_exponents(alpha, beta):
     ValueError
         Naming the offending argument and value.
     """
-    a = _as_float_array("alpha", alpha)
-    b = _as_float_array("beta", beta)
-    _require("alpha", a, lambda x: x >= 1.0, ">= 1 (uniqueness is not known below 1)")
-    _require("beta", b, lambda x: x >= 1.0, ">= 1 (uniqueness is not known below 1)")
-    return a, b
+    return registry.check_array("alpha", alpha), registry.check_array("beta", beta)
 
 
 def scale(m, k, gamma0, v0, alpha, beta, g=9.81, F=0.0):
@@ -125,20 +77,15 @@ def scale(m, k, gamma0, v0, alpha, beta, g=9.81, F=0.0):
     ValueError
         Naming the first offending argument and value.
     """
-    args = {name: _as_float_array(name, val) for name, val in
+    args = {name: registry.check_array(name, val) for name, val in
             dict(m=m, k=k, gamma0=gamma0, v0=v0, g=g, F=F).items()}
     a, b = check_exponents(alpha, beta)
-    _require("m", args["m"], lambda x: x > 0, "> 0 [kg]")
-    _require("k", args["k"], lambda x: x > 0, "> 0")
-    _require("gamma0", args["gamma0"], lambda x: x >= 0, ">= 0")
-    _require("v0", args["v0"], lambda x: x > 0, "> 0 [m/s]")
-    _require("g", args["g"], lambda x: np.ones_like(x, dtype=bool), "finite")
-    _require("F", args["F"], lambda x: np.ones_like(x, dtype=bool), "finite")
     m_, k_, g0, v0_, g_, F_ = (args[n] for n in ("m", "k", "gamma0", "v0", "g", "F"))
     load = g_ + F_ / m_
     if np.any(load < 0):
         bad = np.broadcast_to(load, np.broadcast(load, m_).shape)
-        raise ValueError(f"g + F/m must be >= 0 (a compressive load), got {_first_bad(bad, bad < 0)!r} m/s^2")
+        raise ValueError("g + F/m must be >= 0 (a compressive load), got "
+                         f"{float(bad[bad < 0].reshape(-1)[0])!r} m/s^2")
     ap1 = a + 1.0
     gamma = g0 * v0_ ** (2.0 * b / ap1 - 1.0) * (k_ / m_) ** (1.0 - b / ap1)
     gtilde = (m_ / k_) ** (1.0 / ap1) * v0_ ** (-2.0 * a / ap1) * load
@@ -148,23 +95,32 @@ def scale(m, k, gamma0, v0, alpha, beta, g=9.81, F=0.0):
     return gamma.copy(), gtilde.copy()
 
 
-def equilibrium(alpha, gtilde):
-    """Static equilibrium compression ``u-bar = g~^(1/alpha)`` (dimensionless, Sec. 3)."""
-    return np.asarray(gtilde, dtype=float) ** (1.0 / np.asarray(alpha, dtype=float))
+def _ufunc(scalar):
+    # One formula (sweep.kernels.contact) in two compiled forms: inlined in the kernels and
+    # a numpy ufunc here, compiled on first use.
+    with kernel_cache():
+        return nb.vectorize(cache=True)(scalar.py_func)
 
 
-def natural_frequency(alpha, gtilde):
-    """Linearised angular frequency about u-bar, ``omega_n = sqrt(alpha) g~^((alpha-1)/(2 alpha))``."""
-    a = np.asarray(alpha, dtype=float)
-    return np.sqrt(a) * np.asarray(gtilde, dtype=float) ** ((a - 1.0) / (2.0 * a))
+_equilibrium = _ufunc(contact.equilibrium)
+_natural_frequency = _ufunc(contact.natural_frequency)
+_damping_ratio = _ufunc(contact.damping_ratio)
 
 
-def damping_ratio(alpha, beta, gamma, gtilde):
-    """Linearised damping ratio about u-bar (underdamped iff < 1)::
+def equilibrium(alpha: Any, gtilde: Any) -> Any:
+    """Static equilibrium compression ``u-bar = g~^(1/alpha)`` [1] (report Sec. 3)."""
+    return _equilibrium(np.asarray(alpha, dtype=float), np.asarray(gtilde, dtype=float))
+
+
+def natural_frequency(alpha: Any, gtilde: Any) -> Any:
+    """Linearised angular frequency about u-bar [1/tau],
+    ``omega_n = sqrt(alpha) g~^((alpha-1)/(2 alpha))``."""
+    return _natural_frequency(np.asarray(alpha, dtype=float), np.asarray(gtilde, dtype=float))
+
+
+def damping_ratio(alpha: Any, beta: Any, gamma: Any, gtilde: Any) -> Any:
+    """Linearised damping ratio about u-bar [1] (underdamped iff < 1)::
 
         xi = gamma beta / (2 sqrt(alpha)) g~^((2 beta - alpha - 1) / (2 alpha))
     """
-    a = np.asarray(alpha, dtype=float)
-    b = np.asarray(beta, dtype=float)
-    return (np.asarray(gamma, dtype=float) * b / (2.0 * np.sqrt(a))
-            * np.asarray(gtilde, dtype=float) ** ((2.0 * b - a - 1.0) / (2.0 * a)))
+    return _damping_ratio(*(np.asarray(x, dtype=float) for x in (alpha, beta, gamma, gtilde)))

@@ -5,16 +5,22 @@ import numba
 import numpy as np
 import pytest
 
+import sweep
+from sweep import registry
 from sweep.kernels import approx as A
 from sweep.kernels import special as S
 from sweep.model import Status
 
 KK = (1.5, 1.5)
+METHODS = registry.approximations()
 
 
 def _run(method, alpha, beta, gamma, gtilde, n=21):
+    """The public path (registry dispatch, method domains), on flat arrays."""
     arrs = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (alpha, beta, gamma, gtilde)))
-    return A.approx_cor(method, *(np.ascontiguousarray(a.ravel()) for a in arrs), n=n)
+    options = {"n": n} if method == "ord2_approx" else {}
+    return sweep.cor_with_status(*(np.ascontiguousarray(a.ravel()) for a in arrs), method,
+                                 **options)
 
 
 def _e(method, alpha, beta, gamma, gtilde, n=21):
@@ -24,7 +30,8 @@ def _e(method, alpha, beta, gamma, gtilde, n=21):
 
 
 def test_methods_contract():
-    assert A.METHODS == ("ord1", "sp", "large_gtilde", "ord2_numint", "ord2_approx")
+    assert METHODS == ("ord1", "sp", "large_gtilde", "ord2_numint", "ord2_approx")
+    assert set(A.CODES) == set(METHODS)
     e, status = A.approx_cor("ord1", np.array([1.5]), np.array([1.5]), np.array([0.1]),
                              np.array([0.0]))
     assert e.dtype == np.float64 and status.dtype == np.int8 and e.shape == (1,)
@@ -62,7 +69,7 @@ def test_closed_form_methods_match_their_formulas():
     c, r = 4.4039857765502886, 11 / 6
     np.testing.assert_allclose(_e("large_gtilde", *KK, gamma, gt),
                                np.sqrt(np.maximum(1 - 2 * gamma * c * gt ** r, 0)), rtol=1e-14)
-    i_, q_ = A.coefficients(1.5, 1.5, gt)
+    i_, q_ = sweep.coefficients(1.5, 1.5, gt)
     b = 1.5
     e2 = 1 - 2 * b * i_ * gamma + 2 * b ** 2 * i_ * q_ * gamma ** 2
     es = np.maximum(1 - b * i_ * gamma + b ** 2 * i_ * (q_ - i_ / 2) * gamma ** 2, 0)
@@ -84,7 +91,7 @@ def test_every_method_stays_in_unit_interval():
     gamma = np.concatenate([10 ** rng.uniform(-6, 1.5, size - 10), np.zeros(10)])
     gt = np.concatenate([10 ** rng.uniform(-4, 4, size - 20), np.zeros(20)])
     alpha[:200], beta[:200] = 1.5, 1.5
-    for method in A.METHODS:
+    for method in METHODS:
         e, status = _run(method, alpha, beta, gamma, gt)
         ok = status == Status.OK
         if method == "sp":
@@ -105,7 +112,7 @@ def test_invalid_points_do_not_spoil_neighbours():
     gamma = np.array([0.01, 0.01, 0.01, -1.0, 0.01, 0.02, 0.01, 0.01])
     gt = np.array([0.05, 0.05, 0.05, 0.05, 0.05, np.inf, 0.1, -0.5])
     bad = np.array([False, True, True, True, True, True, False, True])
-    for method in A.METHODS:
+    for method in METHODS:
         e, status = A.approx_cor(method, alpha, beta, gamma, gt)
         assert np.all(status[bad] == Status.INVALID) and np.all(np.isnan(e[bad])), method
         assert np.all(status[~bad] == Status.OK), method
@@ -142,14 +149,14 @@ def test_sp_equals_ord2_linearisation_at_zero_load():
     # agrees to 1e-8.
     gamma = np.array([1e-3, 1e-2, 0.05])
     e_sp = _e("sp", *KK, gamma, 0.0)
-    i0, q0 = A.coefficients_at_zero(1.5, 1.5)
+    i0, q0 = sweep.coefficients_at_zero(1.5, 1.5)
     es = 1 - 1.5 * i0 * gamma + 1.5 ** 2 * i0 * (q0 - i0 / 2) * gamma ** 2
     np.testing.assert_allclose(e_sp, es, atol=2e-8 * gamma.max() ** 2 + 1e-15)
 
 
 @pytest.mark.parametrize("alpha, beta", [KK, (1.0, 1.0), (1.5, 1.0), (1.5, 2.5)])
 def test_large_gtilde_and_ord2_agree_at_large_load(alpha, beta):
-    c, r = A.large_gtilde_coefficient(alpha, beta)
+    c, r = sweep.large_gtilde_coefficient(alpha, beta)
     gaps = []
     for gt in (1e2, 1e4, 1e6):
         gamma = 0.25 / (c * gt ** r)         # e ~ 0.7 by (23)
@@ -181,36 +188,36 @@ def test_low_chebyshev_orders_run():
 # ---------------------------------------------------------------------------------------
 
 def test_front_ends_broadcast_and_scalars():
-    i_, q_ = A.coefficients(1.5, 1.5, 0.05)
+    i_, q_ = sweep.coefficients(1.5, 1.5, 0.05)
     assert isinstance(i_, float) and isinstance(q_, float)
     assert i_ == pytest.approx(1.25752517, abs=5e-9)
-    c0, c1 = A.first_order_coefficients(1.5, 1.5)
+    c0, c1 = sweep.first_order_coefficients(1.5, 1.5)
     assert isinstance(c0, float) and c0 == pytest.approx(1.7301733, abs=5e-8) and c1 == 3.0
-    c, r = A.large_gtilde_coefficient(1.5, 1.5)
+    c, r = sweep.large_gtilde_coefficient(1.5, 1.5)
     assert c == pytest.approx(4.403986, abs=5e-7) and r == pytest.approx(11 / 6)
-    i0, q0 = A.coefficients_at_zero([1.0, 1.5], 1.0)
+    i0, q0 = sweep.coefficients_at_zero([1.0, 1.5], 1.0)
     assert i0.shape == (2,) and q0[0] == pytest.approx(np.pi / 2)
-    ii, qq = A.coefficients(np.array([[1.0], [1.5], [4.0]]), 1.5, np.array([0.0, 1.0]),
+    ii, qq = sweep.coefficients(np.array([[1.0], [1.5], [4.0]]), 1.5, np.array([0.0, 1.0]),
                             method="approx")
     assert ii.shape == (3, 2) and qq.shape == (3, 2)
-    i_a, q_a = A.coefficients(1.5, 1.5, 0.05, method="approx", n=21)
+    i_a, q_a = sweep.coefficients(1.5, 1.5, 0.05, method="approx", n=21)
     assert i_a == pytest.approx(1.25724869, abs=3e-8)
     # arrays: invalid points become NaN
-    ii, qq = A.coefficients([1.5, 0.5], 1.5, [0.1, 0.1])
+    ii, qq = sweep.coefficients([1.5, 0.5], 1.5, [0.1, 0.1])
     assert np.isfinite(ii[0]) and np.isnan(ii[1]) and np.isnan(qq[1])
 
 
 @pytest.mark.parametrize("call, name", [
-    (lambda: A.coefficients(0.5, 1.5, 0.1), "alpha"),
-    (lambda: A.coefficients(1.5, 0.9, 0.1), "beta"),
-    (lambda: A.coefficients(1.5, 1.5, -0.1), "gtilde"),
-    (lambda: A.coefficients(1.5, 1.5, np.nan), "gtilde"),
-    (lambda: A.coefficients(1.0, 1.0, 1e200), "gtilde"),
-    (lambda: A.coefficients(1.5, 1.5, 0.1, method="exact"), "method"),
-    (lambda: A.coefficients(1.5, 1.5, 0.1, method="approx", n=4), "n must"),
-    (lambda: A.first_order_coefficients(0.0, 1.5), "alpha"),
-    (lambda: A.large_gtilde_coefficient(1.5, np.inf), "beta"),
-    (lambda: A.coefficients_at_zero(1.5, -2.0), "beta"),
+    (lambda: sweep.coefficients(0.5, 1.5, 0.1), "alpha"),
+    (lambda: sweep.coefficients(1.5, 0.9, 0.1), "beta"),
+    (lambda: sweep.coefficients(1.5, 1.5, -0.1), "gtilde"),
+    (lambda: sweep.coefficients(1.5, 1.5, np.nan), "gtilde"),
+    (lambda: sweep.coefficients(1.0, 1.0, 1e200), "gtilde"),
+    (lambda: sweep.coefficients(1.5, 1.5, 0.1, method="exact"), "method"),
+    (lambda: sweep.coefficients(1.5, 1.5, 0.1, method="approx", n=4), "n must"),
+    (lambda: sweep.first_order_coefficients(0.0, 1.5), "alpha"),
+    (lambda: sweep.large_gtilde_coefficient(1.5, np.inf), "beta"),
+    (lambda: sweep.coefficients_at_zero(1.5, -2.0), "beta"),
 ])
 def test_scalar_invalid_raises_naming_argument(call, name):
     with pytest.raises(ValueError, match=name):
@@ -229,8 +236,8 @@ def _random_points(size, seed=5):
 
 def test_parallel_serial_and_thread_count_identical():
     pts = _random_points(5000)
-    for method in A.METHODS:
-        code = A.METHODS.index(method)
+    for method in METHODS:
+        code = A.CODES[method]
         outs = []
         for kernel in (A._kernel_serial, A._kernel_parallel):
             e = np.empty(5000)

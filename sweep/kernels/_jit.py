@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import ast
 import contextlib
+import functools
 import hashlib
 import os
 from collections.abc import Iterator
@@ -25,7 +26,8 @@ from pathlib import Path
 
 import numba
 
-__all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "package_imports"]
+__all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "package_imports",
+           "cached_njit"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 _PACKAGE = _PACKAGE_DIR.name
@@ -115,8 +117,13 @@ def source_hash(root: Path | None = None) -> str:
 
 def cache_dir() -> Path:
     """Cache directory for this exact source tree (``$NUMBA_CACHE_DIR`` or ``~/.cache``)."""
-    base = os.environ.get("NUMBA_CACHE_DIR") or os.environ.get("XDG_CACHE_HOME") \
-        or os.path.join(os.path.expanduser("~"), ".cache")
+    return _cache_dir(os.environ.get("NUMBA_CACHE_DIR"), os.environ.get("XDG_CACHE_HOME"))
+
+
+@functools.lru_cache(maxsize=4)
+def _cache_dir(numba_cache: str | None, xdg_cache: str | None) -> Path:
+    # Hashing parses every kernel source: once per process (sources do not change under it).
+    base = numba_cache or xdg_cache or os.path.join(os.path.expanduser("~"), ".cache")
     return Path(base) / "sweep-numba" / source_hash()
 
 
@@ -135,3 +142,16 @@ def kernel_cache() -> Iterator[None]:
         yield
     finally:
         numba.config.CACHE_DIR = previous
+
+
+def cached_njit(**options):
+    """``numba.njit(cache=True, **options)`` whose cache lives under :func:`cache_dir`.
+
+    numba picks a dispatcher's cache location when the dispatcher is created, so creating it
+    inside :func:`kernel_cache` is what keys it on the kernel sources, whenever and in
+    whatever order the kernel modules are imported.
+    """
+    def wrap(fn):
+        with kernel_cache():
+            return numba.njit(cache=True, **options)(fn)
+    return wrap

@@ -32,27 +32,28 @@ KK; ``"ord2_*"`` at g~ so large that ``theta`` of (43) underflows or I overflows
 
 The kernels are compiled lazily (first call) without fastmath, so NaN checks work and
 results are bit-identical whatever the number of threads or the chunking.
+
+Owns: the closed-form kernels over flat arrays. May import: registry, the other kernels.
 """
 from __future__ import annotations
 
 import math
-import operator
 
 import numba as nb
 import numpy as np
 
-from sweep._arrays import PARAMETER_RULES, Broadcast
-from sweep.kernels._jit import kernel_cache
+from sweep.kernels._jit import cached_njit
 from sweep.kernels._parallel import parallel_allowed
-from sweep.model import Status
-from sweep.kernels.special import (chebyshev_tables, first_order_constants, iq_at_zero, iq_chebyshev,
-                           iq_quadrature, large_gtilde_constants)
+from sweep.kernels.contact import in_domain
+from sweep.kernels.special import (chebyshev_tables, first_order_constants, iq_at_zero,
+                                   iq_chebyshev, iq_quadrature, large_gtilde_constants)
+from sweep.registry import METHODS, Status
 
-__all__ = ["METHODS", "SP_C2", "approx_cor", "coefficients", "coefficients_at_zero",
-           "first_order_coefficients", "large_gtilde_coefficient", "parallel_allowed"]
+__all__ = ["SP_C2", "approx_cor", "ord1", "sp", "large_gtilde", "ord2_numint", "ord2_approx",
+           "coefficient_arrays", "CODES"]
 
-#: Methods of :func:`approx_cor`, in the order of their integer codes in the kernel.
-METHODS = ("ord1", "sp", "large_gtilde", "ord2_numint", "ord2_approx")
+#: Kernel codes of the closed forms (the methods of :data:`sweep.registry.METHODS`).
+CODES = {"ord1": 0, "sp": 1, "large_gtilde": 2, "ord2_numint": 3, "ord2_approx": 4}
 
 #: Schwager-Poeschel's second-order coefficient for KK at g~ = 0, (30): -(9/4) c2.
 SP_C2 = -(9.0 / 4.0) * 0.7982665553
@@ -66,26 +67,13 @@ _CONST_LARGE = 8     # C, r (23)
 _COEF_ZERO = 9       # I(0), Q(0) (39), (40)
 
 
-def _jit(**options):
-    """``numba.njit(cache=True, **options)``, caching under the package's source-hash directory.
-
-    The dispatcher is created inside :func:`sweep.kernels._jit.kernel_cache`: this module is imported
-    lazily (after ``sweep/__init__`` has left that context), and numba's own cache key would
-    only check this file, not the functions of :mod:`sweep.kernels.special` compiled into the kernels.
-    """
-    def wrap(fn):
-        with kernel_cache():
-            return nb.njit(cache=True, **options)(fn)
-    return wrap
-
-
 _OK = np.int8(Status.OK)
 _INVALID = np.int8(Status.INVALID)
 _CHUNK = 1024
 _DEFAULT_N = 21
 
 
-@_jit()
+@cached_njit()
 def _clip01(x):
     if x < 0.0:
         return 0.0
@@ -94,7 +82,7 @@ def _clip01(x):
     return x
 
 
-@_jit()
+@cached_njit()
 def _sqrt_plus(x):
     """``sqrt(max(x, 0))`` that keeps NaN."""
     if x > 0.0:
@@ -104,7 +92,7 @@ def _sqrt_plus(x):
     return math.nan
 
 
-@_jit()
+@cached_njit()
 def _ord2(beta, gamma, i_, q_):
     """Prop. 2, (36)-(38), clipped to [0, 1] (NaN passes through)."""
     bi = beta * i_ * gamma
@@ -118,7 +106,7 @@ def _ord2(beta, gamma, i_, q_):
     return _clip01(min(ep, es))
 
 
-@_jit()
+@cached_njit()
 def _run_range(code, start, stop, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
     """Evaluate points ``start .. stop-1`` serially (one chunk of the parallel kernel).
 
@@ -140,11 +128,7 @@ def _run_range(code, start, stop, alpha, beta, gamma, gtilde, n, e, status, aux1
         b = beta[i]
         g = gamma[i]
         gt = gtilde[i]
-        ok = (a >= 1.0 and b >= 1.0 and g >= 0.0 and gt >= 0.0 and math.isfinite(a)
-              and math.isfinite(b) and math.isfinite(g) and math.isfinite(gt))
-        if code == _SP:
-            ok = ok and a == 1.5 and b == 1.5
-        if not ok:
+        if not in_domain(a, b, g, gt):
             e[i] = math.nan
             status[i] = _INVALID
             if store_aux:
@@ -193,7 +177,7 @@ def _run_range(code, start, stop, alpha, beta, gamma, gtilde, n, e, status, aux1
             aux2[i] = x2 if good else math.nan
 
 
-@_jit(parallel=True)
+@cached_njit(parallel=True)
 def _kernel_parallel(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
     size = alpha.size
     nchunks = (size + _CHUNK - 1) // _CHUNK
@@ -202,19 +186,9 @@ def _kernel_parallel(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2)
                    n, e, status, aux1, aux2)
 
 
-@_jit()
+@cached_njit()
 def _kernel_serial(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
     _run_range(code, 0, alpha.size, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2)
-
-
-def _check_n(n):
-    try:
-        ni = operator.index(n)
-    except TypeError:
-        raise ValueError(f"n must be an odd integer >= 1, got {n!r}") from None
-    if isinstance(n, bool) or ni < 1 or ni % 2 == 0:
-        raise ValueError(f"n must be an odd integer >= 1, got {n!r}")
-    return int(ni)
 
 
 def _run(code, alpha, beta, gamma, gtilde, n, aux=True):
@@ -234,7 +208,7 @@ def approx_cor(method, alpha, beta, gamma, gtilde, n=_DEFAULT_N):
     Parameters
     ----------
     method : str
-        One of :data:`METHODS` (see the module docstring).
+        A key of :data:`CODES` (see the module docstring).
     alpha, beta, gamma, gtilde : ndarray
         1-D float64 arrays of equal length (already broadcast): exponents [1] (>= 1),
         scaled damping gamma [1] (>= 0) and load g~ [1] (>= 0) of (2).
@@ -252,81 +226,57 @@ def approx_cor(method, alpha, beta, gamma, gtilde, n=_DEFAULT_N):
     ------
     ValueError
         Unknown method, n not an odd integer >= 1, or arrays of different shapes.
+
+    The exponents where a method is defined at all (``"sp"``: Kuwabara-Kono only) are the
+    registry's fact (:attr:`sweep.registry.Method.models`), applied by the caller.
     """
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    n = _check_n(n)
+    if method not in CODES:
+        raise ValueError(f"method must be one of {tuple(CODES)}, got {method!r}")
+    n = METHODS["ord2_approx"].check_options({"n": n})["n"]
     arrays = [np.ascontiguousarray(x, dtype=np.float64) for x in (alpha, beta, gamma, gtilde)]
     if any(x.ndim != 1 for x in arrays) or len({x.size for x in arrays}) != 1:
         raise ValueError("alpha, beta, gamma, gtilde must be 1-D arrays of equal length, got "
                          f"shapes {[x.shape for x in arrays]}")
-    e, status, _, _ = _run(METHODS.index(method), *arrays, n, aux=False)
+    e, status, _, _ = _run(CODES[method], *arrays, n, aux=False)
     return e, status
 
 
-def _pair(code, names, values, n=_DEFAULT_N):
-    """Broadcast, validate a scalar call, run a constants/coefficients code."""
-    b = Broadcast(names, values)
-    b.raise_if_invalid(PARAMETER_RULES)
-    alpha, beta = b.flat[0], b.flat[1]
-    gtilde = b.flat[2] if len(b.flat) > 2 else np.zeros_like(alpha)
-    _, status, x1, x2 = _run(code, alpha, beta, np.zeros_like(alpha), gtilde, n)
-    if b.scalar and status[0] != Status.OK:
-        raise ValueError(f"gtilde is out of the range of I, Q (theta of (43) underflows), "
-                         f"got {float(gtilde[0])!r}")
-    return b.restore(x1), b.restore(x2)
+def ord1(alpha, beta, gamma, gtilde):
+    """Kernel of ``"ord1"``, eq. (22), over flat arrays: ``(e, status)``."""
+    return approx_cor("ord1", alpha, beta, gamma, gtilde)
 
 
-def coefficients(alpha, beta, gtilde, method="numint", n=_DEFAULT_N):
-    """The g~-dependent coefficients ``I(g~)``, ``Q(g~)`` of Prop. 2 [1].
+def sp(alpha, beta, gamma, gtilde):
+    """Kernel of ``"sp"``, eqs. (25), (30), over flat arrays: ``(e, status)``."""
+    return approx_cor("sp", alpha, beta, gamma, gtilde)
 
-    ::
 
-        I = 2 int_0^{u_M} [1 + 2(g~ u - u^(a+1)/(a+1))]^(+1/2) u^(b-1) du
-        Q =   int_0^{u_M} [1 + 2(g~ u - u^(a+1)/(a+1))]^(-1/2) u^(b-1) du
+def large_gtilde(alpha, beta, gamma, gtilde):
+    """Kernel of ``"large_gtilde"``, eq. (23), over flat arrays: ``(e, status)``."""
+    return approx_cor("large_gtilde", alpha, beta, gamma, gtilde)
 
-    (Prop. 2's I, twice the one of Sec. 4.1.)
 
-    Parameters
-    ----------
-    alpha, beta, gtilde : array_like
-        Exponents [1] (>= 1) and scaled load [1] (>= 0), broadcast together.
-    method : {"numint", "approx"}
-        Gauss quadrature (relative error ~1e-15) or the report's Chebyshev-Beta
-        approximation (47)-(53) of odd order ``n`` (~1e-3).
-    n : int, default 21
+def ord2_numint(alpha, beta, gamma, gtilde):
+    """Kernel of ``"ord2_numint"``, Prop. 2 with I, Q by quadrature: ``(e, status)``."""
+    return approx_cor("ord2_numint", alpha, beta, gamma, gtilde)
 
-    Returns
-    -------
-    I, Q : ndarray or float
-        NaN at invalid points of an array call; a scalar call with an invalid value raises
-        ``ValueError`` naming it.
+
+def ord2_approx(alpha, beta, gamma, gtilde, n=_DEFAULT_N):
+    """Kernel of ``"ord2_approx"``, Prop. 2 with Chebyshev-Beta I, Q of order n: ``(e, status)``."""
+    return approx_cor("ord2_approx", alpha, beta, gamma, gtilde, n)
+
+
+#: Codes of :func:`coefficient_arrays`.
+_COEFFICIENTS = {"numint": _COEF_NUMINT, "approx": _COEF_APPROX, "first": _CONST_FIRST,
+                 "large": _CONST_LARGE, "zero": _COEF_ZERO}
+
+
+def coefficient_arrays(which, alpha, beta, gtilde, n=_DEFAULT_N):
+    """Coefficient pairs over flat float64 arrays: ``(x1, x2, status)``.
+
+    ``which``: ``"numint"`` / ``"approx"`` -- I, Q of Prop. 2 (quadrature or Chebyshev-Beta);
+    ``"first"`` -- C0, C1 of (22); ``"large"`` -- C, r of (23); ``"zero"`` -- I(0), Q(0) of
+    (39), (40). NaN and ``Status.INVALID`` where undefined.
     """
-    routes = {"numint": _COEF_NUMINT, "approx": _COEF_APPROX}
-    if method not in routes:
-        raise ValueError(f"method must be one of {tuple(routes)}, got {method!r}")
-    return _pair(routes[method], ("alpha", "beta", "gtilde"), (alpha, beta, gtilde),
-                 _check_n(n))
-
-
-def coefficients_at_zero(alpha, beta):
-    """Exact ``I(0)``, ``Q(0)`` [1] of (39), (40) (KK: 1.1534489, 1.2687937)."""
-    return _pair(_COEF_ZERO, ("alpha", "beta"), (alpha, beta))
-
-
-def first_order_coefficients(alpha, beta):
-    """``C0``, ``C1`` [1] of the first-order approximation (22) (KK: 1.7301733, 3).
-
-    ``C0 = b ((a+1)/2)^((b-a-1)/(a+1)) B(b/(a+1), 3/2)`` and
-    ``C1 = b ((a+1)/2)^((b-a)/(a+1)) B((b+1)/(a+1), 1/2)``; broadcast over alpha, beta.
-    """
-    return _pair(_CONST_FIRST, ("alpha", "beta"), (alpha, beta))
-
-
-def large_gtilde_coefficient(alpha, beta):
-    """``C`` and the exponent ``r`` [1] of the large-g~ approximation (23), (24).
-
-    ``e^2 = 1 - 2 gamma C g~^r`` with ``r = b/a + 1/(2a) + 1/2`` and
-    ``C = 2 sqrt(2) (b/a) (a+1)^(b/a + 1/(2a)) B((b + 1/2)/a, 3/2)`` (KK: 4.403986, 11/6).
-    """
-    return _pair(_CONST_LARGE, ("alpha", "beta"), (alpha, beta))
+    _, status, x1, x2 = _run(_COEFFICIENTS[which], alpha, beta, np.zeros_like(alpha), gtilde, n)
+    return x1, x2, status

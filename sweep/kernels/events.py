@@ -4,12 +4,15 @@ Events of Algorithm 1 are zeros of ``u - c`` (c = u-bar or 0) or of the velocity
 ``v = w - gamma u_+^beta``. They are bracketed by sign tests, located here on the step's
 4th-order interpolant by the Illinois variant of regula falsi, and then refined by the
 integrator with full Runge-Kutta steps from the step's start (:mod:`sweep.kernels.integrator`).
+
+Owns: event functions and their location on the interpolant. May import: contact, stepper.
 """
 from __future__ import annotations
 
 import numba as nb
 
-from sweep.kernels.stepper import dense_eval, ppow
+from sweep.kernels.contact import velocity
+from sweep.kernels.stepper import dense_eval
 
 __all__ = ["ON_U", "ON_V", "event_value", "locate"]
 
@@ -18,24 +21,24 @@ ON_V = 1
 
 
 @nb.njit(inline="always")
-def event_value(which, target, u, w, beta, gamma, kb):
-    """``u - target`` (``which == ON_U``) or ``v = w - gamma u_+^beta`` (``ON_V``)."""
+def event_value(which, target, u, w, c):
+    """``u - target`` (``which == ON_U``) or the velocity v (``ON_V``) of the law ``c``."""
     if which == ON_U:
         return u - target
-    return w - gamma * ppow(u, beta, kb)
+    return velocity(u, w, c)
 
 
 @nb.njit
-def locate(which, target, u0, w0, Q, beta, gamma, kb, ta, tb):
+def locate(which, target, u0, w0, Q, c, ta, tb):
     """Fraction ``theta`` in ``[ta, tb]`` of the step where the event function vanishes.
 
     The event function must change sign over ``[ta, tb]``; if roundoff hides the change the
     end ``tb`` is returned (the caller's sign test at the step end found the event there).
     """
     u, w = dense_eval(u0, w0, Q, ta)
-    fa = event_value(which, target, u, w, beta, gamma, kb)
+    fa = event_value(which, target, u, w, c)
     u, w = dense_eval(u0, w0, Q, tb)
-    fb = event_value(which, target, u, w, beta, gamma, kb)
+    fb = event_value(which, target, u, w, c)
     if fb == 0.0:
         return tb
     if fa == 0.0:
@@ -44,19 +47,19 @@ def locate(which, target, u0, w0, Q, beta, gamma, kb, ta, tb):
         return tb
     a, b = ta, tb
     for _ in range(200):
-        c = b - fb * (b - a) / (fb - fa)
-        if not (min(a, b) < c < max(a, b)):
-            c = 0.5 * (a + b)
-        u, w = dense_eval(u0, w0, Q, c)
-        fc = event_value(which, target, u, w, beta, gamma, kb)
-        if fc == 0.0:
-            return c
-        if (fc > 0.0) != (fb > 0.0):
+        x = b - fb * (b - a) / (fb - fa)
+        if not (min(a, b) < x < max(a, b)):
+            x = 0.5 * (a + b)
+        u, w = dense_eval(u0, w0, Q, x)
+        fx = event_value(which, target, u, w, c)
+        if fx == 0.0:
+            return x
+        if (fx > 0.0) != (fb > 0.0):
             a, fa = b, fb
         else:
             # Illinois: halve the stale end's weight so the bracket shrinks from both sides.
             fa *= 0.5
-        b, fb = c, fc
+        b, fb = x, fx
         if abs(b - a) <= 4e-16:
             break
     return b

@@ -48,21 +48,25 @@ import math
 import numba as nb
 import numpy as np
 
+from sweep.kernels._jit import cached_njit
 from sweep.kernels._parallel import parallel_allowed
+from sweep.kernels.contact import (accel, damping_ratio, dissipated, equilibrium, in_domain,
+                                   make_law, ppow, rhs, velocity, well_depth)
 from sweep.kernels.events import ON_U, ON_V, locate
-from sweep.model import Status
-from sweep.kernels.stepper import N_DENSE, N_STAGES, dense_coefficients, power_kind, ppow, rhs, rk_step
-from sweep.kernels.stepsize import (base_step, damping_limited, damping_step, graded_step, grading,
-                            needs_grading)
+from sweep.kernels.stepper import N_DENSE, N_STAGES, dense_coefficients, rk_step
+from sweep.kernels.stepsize import damping_step, first_guess, policy
+from sweep.registry import METHODS, Status, kernel_fields
 
-__all__ = ["integrate_arrays", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL"]
+__all__ = ["integrate_arrays", "integrate_point", "numeric_cor", "DEFAULT_STEPS",
+           "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL"]
 
+_OPTIONS = {opt.name: opt.default for opt in METHODS["numeric"].options}
 #: Steps per half period of the stiffest linearised motion (see :mod:`sweep.kernels.stepsize`).
-DEFAULT_STEPS = 96
+DEFAULT_STEPS = _OPTIONS["steps"]
 #: Step budget per point (all Runge-Kutta steps, refinements included).
-DEFAULT_MAX_STEPS = 200_000
+DEFAULT_MAX_STEPS = _OPTIONS["max_steps"]
 #: Rest tolerance of the report (Sec. 3).
-DEFAULT_REST_TOL = 1e-8
+DEFAULT_REST_TOL = _OPTIONS["rest_tol"]
 
 _OK = int(Status.OK)
 _STUCK = int(Status.STUCK)
@@ -78,24 +82,17 @@ _BALANCE_THRESHOLD = 0.05
 
 
 @nb.njit(inline="always")
-def _restep(u, w, r, d, K, K2, alpha, beta, gamma, gtilde, ka, kd):
+def _set_first_stage(K, fu, fw, fr):
+    K[0, 0] = fu
+    K[0, 1] = fw
+    K[0, 2] = fr
+
+
+@nb.njit(inline="always")
+def _restep(u, w, r, d, K, K2, c):
     """State at time ``d`` after the step's start, by one Runge-Kutta step of size ``d``."""
-    K2[0, 0] = K[0, 0]
-    K2[0, 1] = K[0, 1]
-    K2[0, 2] = K[0, 2]
-    return rk_step(u, w, r, d, K2, alpha, beta, gamma, gtilde, ka, kd)
-
-
-@nb.njit(inline="always")
-def _accel(u, v, alpha, beta, gamma, gtilde, ka, kd):
-    """``dv/dtau = g~ - u^alpha - gamma beta u^(beta-1) v`` for u >= 0."""
-    return gtilde - ppow(u, alpha, ka) - gamma * beta * ppow(u, beta - 1.0, kd) * v
-
-
-@nb.njit(inline="always")
-def _dissipated(u, v, r, beta, gamma, kb):
-    """Energy dissipated so far, ``q = gamma v u_+^beta + r`` (see :func:`sweep.kernels.stepper.rhs`)."""
-    return gamma * v * ppow(u, beta, kb) + r
+    _set_first_stage(K2, K[0, 0], K[0, 1], K[0, 2])
+    return rk_step(u, w, r, d, K2, c)
 
 
 @nb.njit(inline="always")
@@ -128,13 +125,13 @@ def _damping_integral(beta, gamma, u_max, t_f):
 
 
 @nb.njit
-def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, alpha, beta, gamma, gtilde, ka, kb, kd):
+def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, c):
     """Refine the detachment u = 0 inside ``[th_lo, th_hi]`` of the step from ``(u, w, r)``.
 
     Returns ``(time from the step's start, dissipated energy q, velocity, re-steps used)``
     at the detachment.
     """
-    th = locate(ON_U, 0.0, u, w, Q, beta, gamma, kb, th_lo, th_hi)
+    th = locate(ON_U, 0.0, u, w, Q, c, th_lo, th_hi)
     lo = th_lo * s
     hi = th_hi * s
     d = th * s
@@ -143,9 +140,9 @@ def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, alpha, beta, gamma, gtilde, ka, 
     ve = -1.0
     r_e = r
     for _ in range(12):
-        ue, we, r_e = _restep(u, w, r, d, K, K2, alpha, beta, gamma, gtilde, ka, kd)
+        ue, we, r_e = _restep(u, w, r, d, K, K2, c)
         used += 1
-        ve = we - gamma * ppow(ue, beta, kb)
+        ve = velocity(ue, we, c)
         if ue > 0.0:
             lo = d
         else:
@@ -159,9 +156,19 @@ def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, alpha, beta, gamma, gtilde, ka, 
         d = dn
     # The last Newton correction is O(u_e), within roundoff; apply it to first order.
     delta = -ue / ve if ve < 0.0 else 0.0
-    v_f = ve + delta * (gtilde - ppow(ue, alpha, ka))
-    q_f = _dissipated(ue, ve, r_e, beta, gamma, kb) + delta * gamma * beta * ppow(ue, beta - 1.0, kd) * ve * ve
+    v_f = ve + delta * (c.gtilde - ppow(ue, c.alpha, c.ka))
+    q_f = dissipated(ue, ve, r_e, c) + delta * c.gamma * c.beta * ppow(ue, c.beta - 1.0, c.kd) * ve * ve
     return d, q_f, v_f, used
+
+
+@nb.njit(inline="always")
+def _stationary_u(u, v, c, upward):
+    """u at the vertex of the local parabola through (u, v): removes a residual v at an
+    extremum of u (``upward``: a minimum, where the acceleration is positive)."""
+    acc = accel(u, v, c)
+    if (acc > 0.0) if upward else (acc < 0.0):
+        return u - 0.5 * v * v / acc
+    return u
 
 
 @nb.njit(inline="always")
@@ -180,139 +187,154 @@ def _linear_overdamped_g0(gamma):
     return (math.exp(l1 * t) - math.exp(l2 * t)) / (l1 - l2)
 
 
+# --------------------------------------------------------------------------- one step
+
+@nb.njit(inline="always")
+def _advance(u, w, r, v, p, K, c, n, max_steps):
+    """One step of the march: size from the policy, then the damping cap judged at the
+    step's end (the step retaken, smaller, while it is exceeded). Returns the new state,
+    the step and the steps counter."""
+    s = first_guess(u, v, p, c)
+    fu0 = K[0, 0]
+    fw0 = K[0, 1]
+    fr0 = K[0, 2]
+    u1, w1, r1 = rk_step(u, w, r, s, K, c)
+    n += 1
+    if p.capped:
+        # A load can drive the bead deep into the damper within one step: judge the cap
+        # at the step's end too and retake the step if it was exceeded (twice: slack
+        # against retaking steps for nothing).
+        s_end = damping_step(u1, c.beta, c.gamma, p.steps)
+        while not (s <= 2.0 * s_end and math.isfinite(u1) and math.isfinite(w1)) and n < max_steps:
+            s = s_end if s_end < 0.5 * s else 0.5 * s
+            _set_first_stage(K, fu0, fw0, fr0)
+            u1, w1, r1 = rk_step(u, w, r, s, K, c)
+            n += 1
+            s_end = damping_step(u1, c.beta, c.gamma, p.steps)
+    return u1, w1, r1, s, n
+
+
+# --------------------------------------------------------------------------- phases
+
+@nb.njit(inline="always")
+def _may_have_event(phase, u1, v1, ubar):
+    """An event of Algorithm 1 may lie inside the step that ended at (u1, v1)."""
+    if phase == 1:
+        return v1 <= 0.0
+    if phase == 2:
+        return u1 < ubar or (ubar == 0.0 and u1 <= 0.0)
+    return u1 <= 0.0 or v1 >= 0.0
+
+
+@nb.njit(inline="always")
+def _compression_end(u, w, r, s, Q, K, K2, c):
+    """Phase 1 ends inside the step: maximum compression (v = 0). Returns its fraction of
+    the step and ``u_max``."""
+    th = locate(ON_V, 0.0, u, w, Q, c, 0.0, 1.0)
+    um, wm, _ = _restep(u, w, r, th * s, K, K2, c)
+    return th, _stationary_u(um, velocity(um, wm, c), c, False)
+
+
+@nb.njit(inline="always")
+def _trough(u, w, r, s, th0, Q, K, K2, c):
+    """Phase 3, v = 0 inside the step: the bead's lowest point after the swing. Returns its
+    fraction of the step and the minimum of u there (> 0: the bead sticks; <= 0: it dipped
+    below the floor inside the step -- grazing -- and left first)."""
+    th = locate(ON_V, 0.0, u, w, Q, c, th0, 1.0)
+    us, ws, _ = _restep(u, w, r, th * s, K, K2, c)
+    return th, _stationary_u(us, velocity(us, ws, c), c, True)
+
+
+# --------------------------------------------------------------------------- stopping rules
+
+@nb.njit(inline="always")
+def _at_rest(u, v, ubar, rest_tol):
+    """Rest criterion of the report (Sec. 3): ``max(|u - u-bar|, |v|) < rest_tol``."""
+    return max(abs(u - ubar), abs(v)) < rest_tol
+
+
+@nb.njit(inline="always")
+def _cannot_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
+    """Energy rule: the dissipated energy exceeds the initial 1/2 (beyond roundoff), so the
+    bead can never reach u = 0 again (H = 1/2 - q never increases and is e^2/2 >= 0 at a
+    detachment). q = gamma v u^beta + r, with gamma u^beta = w - v read off the state.
+    Applied from phase 2 on, and in phase 1 only when the linearisation is overdamped."""
+    return c.gtilde > 0.0 and (phase > 1 or energy_in_phase1) and v * (w - v) + r > q_stuck
+
+
+# --------------------------------------------------------------------------- driver
+
 @nb.njit
 def integrate_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, K, K2, Q):
     """Numerical CoR of one point; returns ``(e, t_f, u_max, n_steps, status)``.
 
     ``K``, ``K2`` (stages, shape (s, 3)) and ``Q`` (dense output, shape (2, q)) are scratch.
     """
-    nan = np.nan
-    if not (alpha >= 1.0 and beta >= 1.0 and gamma >= 0.0 and gtilde >= 0.0
-            and math.isfinite(alpha) and math.isfinite(beta)
-            and math.isfinite(gamma) and math.isfinite(gtilde)):
-        return nan, nan, nan, 0, _INVALID
+    if not in_domain(alpha, beta, gamma, gtilde):
+        return np.nan, np.nan, np.nan, 0, _INVALID
     if alpha == 1.0 and beta == 1.0 and gtilde == 0.0 and gamma >= 2.0:
         # Decided by the closed form: the march would only creep towards rest, exponentially slowly.
         return 0.0, math.inf, _linear_overdamped_g0(gamma), 0, _AT_REST
-    ka = power_kind(alpha)
-    kb = power_kind(beta)
-    kd = power_kind(beta - 1.0)
-    ubar = gtilde ** (1.0 / alpha) if gtilde > 0.0 else 0.0
-    h = base_step(alpha, gtilde, steps)
-    capped = damping_limited(alpha, beta, gamma, gtilde)
-    graded = needs_grading(alpha, beta)
-    rho, first = grading(steps)
-    s_min = first * h
-    xi = gamma * beta / (2.0 * math.sqrt(alpha)) * gtilde ** ((2.0 * beta - alpha - 1.0) / (2.0 * alpha)) \
-        if gtilde > 0.0 else 0.0
-    energy_in_phase1 = xi >= 1.0
-    q_stuck = 0.5 * (1.0 + _ENERGY_ROUNDOFF)
-    swing2 = 1.0 + 2.0 * gtilde * ubar * alpha / (alpha + 1.0)
+    c = make_law(alpha, beta, gamma, gtilde)
+    return _march(c, policy(c, steps), rest_tol, max_steps, K, K2, Q)
 
-    t = 0.0
-    u = 0.0
-    w = 1.0
-    r = 0.0
-    fu, fw, fr = rhs(u, w, alpha, beta, gamma, gtilde, ka, kd)
-    K[0, 0] = fu
-    K[0, 1] = fw
-    K[0, 2] = fr
-    v = w
+
+@nb.njit
+def _march(c, p, rest_tol, max_steps, K, K2, Q):
+    """The three phases of Algorithm 1 for the law ``c`` with the step policy ``p``."""
+    ubar = equilibrium(c.alpha, c.gtilde)
+    energy_in_phase1 = c.gtilde > 0.0 and damping_ratio(c.alpha, c.beta, c.gamma, c.gtilde) >= 1.0
+    q_stuck = 0.5 * (1.0 + _ENERGY_ROUNDOFF)
+    t = u = r = 0.0
+    w = v = 1.0
+    fu, fw, fr = rhs(u, w, c)
+    _set_first_stage(K, fu, fw, fr)
     phase = 1
-    u_max = nan
+    u_max = np.nan
     n = 0
-    fu0 = fu
-    fw0 = fw
-    fr0 = fr
     while True:
         if n >= max_steps:
             # The energy still available, 1/2 - q, bounds the rebound speed.
-            q_now = _dissipated(u, v, r, beta, gamma, kb)
+            q_now = dissipated(u, v, r, c)
             return math.sqrt(max(1.0 - 2.0 * q_now, 0.0)), t, u_max, n, _BUDGET
-        s = graded_step(u, v, h, rho, s_min) if graded else h
-        if capped:
-            # Judge the cap where the step may take the bead (speed and load push it deeper).
-            for _ in range(3):
-                s = min(s, damping_step(u + s * max(v, 0.0) + 0.5 * s * s * gtilde, beta, gamma, steps))
-            fu0 = K[0, 0]
-            fw0 = K[0, 1]
-            fr0 = K[0, 2]
-        u1, w1, r1 = rk_step(u, w, r, s, K, alpha, beta, gamma, gtilde, ka, kd)
-        n += 1
-        if capped:
-            # A load can drive the bead deep into the damper within one step: judge the cap
-            # at the step's end too and retake the step if it was exceeded (twice: slack
-            # against retaking steps for nothing).
-            s_end = damping_step(u1, beta, gamma, steps)
-            while not (s <= 2.0 * s_end and math.isfinite(u1) and math.isfinite(w1)) and n < max_steps:
-                s = s_end if s_end < 0.5 * s else 0.5 * s
-                K[0, 0] = fu0
-                K[0, 1] = fw0
-                K[0, 2] = fr0
-                u1, w1, r1 = rk_step(u, w, r, s, K, alpha, beta, gamma, gtilde, ka, kd)
-                n += 1
-                s_end = damping_step(u1, beta, gamma, steps)
+        u1, w1, r1, s, n = _advance(u, w, r, v, p, K, c, n, max_steps)
         # The last (FSAL) stage is f at the step's end: its u' is the velocity v1, no power.
         v1 = K[N_STAGES - 1, 0]
-        th0 = 0.0
-        have_q = False
-        if phase == 1 and v1 <= 0.0:
+        if _may_have_event(phase, u1, v1, ubar):
             dense_coefficients(K, s, Q)
-            have_q = True
-            th0 = locate(ON_V, 0.0, u, w, Q, beta, gamma, kb, 0.0, 1.0)
-            um, wm, _ = _restep(u, w, r, th0 * s, K, K2, alpha, beta, gamma, gtilde, ka, kd)
-            n += 1
-            vm = wm - gamma * ppow(um, beta, kb)
-            acc = _accel(um, vm, alpha, beta, gamma, gtilde, ka, kd)
-            # u is stationary here: the vertex of the local parabola removes the residual v.
-            u_max = um - 0.5 * vm * vm / acc if acc < 0.0 else um
-            phase = 2
-        if phase == 2 and ubar > 0.0 and u1 < ubar:
-            if not have_q:
-                dense_coefficients(K, s, Q)
-                have_q = True
-            th0 = locate(ON_U, ubar, u, w, Q, beta, gamma, kb, th0, 1.0)
-            phase = 3
-        # With g~ = 0 (u-bar = 0) the return to u-bar in phase 2 is the detachment itself.
-        leaving = phase == 3 or (phase == 2 and ubar == 0.0)
-        exiting = leaving and u1 <= 0.0
-        th_exit = 1.0
-        if not exiting and phase == 3 and v1 >= 0.0:
-            if not have_q:
-                dense_coefficients(K, s, Q)
-                have_q = True
-            thv = locate(ON_V, 0.0, u, w, Q, beta, gamma, kb, th0, 1.0)
-            us, ws, _ = _restep(u, w, r, thv * s, K, K2, alpha, beta, gamma, gtilde, ka, kd)
-            n += 1
-            vs = ws - gamma * ppow(us, beta, kb)
-            acc = _accel(us, vs, alpha, beta, gamma, gtilde, ka, kd)
-            u_min = us - 0.5 * vs * vs / acc if acc > 0.0 else us
-            if u_min > 0.0:
-                return 0.0, t + thv * s, u_max, n, _STUCK
-            # Grazing: u dipped below 0 inside the step, so the bead left the floor first.
-            exiting = True
-            th_exit = thv
-        if exiting:
-            if not have_q:
-                dense_coefficients(K, s, Q)
-            d, q_f, v_f, used = _detach(u, w, r, s, th0, th_exit, Q, K, K2, alpha, beta, gamma, gtilde,
-                                        ka, kb, kd)
-            lam = _damping_integral(beta, gamma, u_max, t + d)
-            return _cor_at_exit(q_f, v_f, swing2, lam), t + d, u_max, n + used, _OK
+            th0 = 0.0
+            if phase == 1 and v1 <= 0.0:
+                th0, u_max = _compression_end(u, w, r, s, Q, K, K2, c)
+                n += 1
+                phase = 2
+            if phase == 2 and ubar > 0.0 and u1 < ubar:
+                th0 = locate(ON_U, ubar, u, w, Q, c, th0, 1.0)
+                phase = 3
+            # With g~ = 0 (u-bar = 0) the return to u-bar in phase 2 is the detachment itself.
+            exiting = (phase == 3 or (phase == 2 and ubar == 0.0)) and u1 <= 0.0
+            th_exit = 1.0
+            if not exiting and phase == 3 and v1 >= 0.0:
+                th_exit, u_min = _trough(u, w, r, s, th0, Q, K, K2, c)
+                n += 1
+                if u_min > 0.0:
+                    return 0.0, t + th_exit * s, u_max, n, _STUCK
+                exiting = True
+            if exiting:
+                d, q_f, v_f, used = _detach(u, w, r, s, th0, th_exit, Q, K, K2, c)
+                swing2 = 1.0 + 2.0 * well_depth(c.alpha, c.gtilde)
+                lam = _damping_integral(c.beta, c.gamma, u_max, t + d)
+                return _cor_at_exit(q_f, v_f, swing2, lam), t + d, u_max, n + used, _OK
         t += s
         u = u1
         w = w1
         r = r1
         v = v1
-        K[0, 0] = K[N_STAGES - 1, 0]
-        K[0, 1] = K[N_STAGES - 1, 1]
-        K[0, 2] = K[N_STAGES - 1, 2]
-        if max(abs(u - ubar), abs(v)) < rest_tol:
+        _set_first_stage(K, K[N_STAGES - 1, 0], K[N_STAGES - 1, 1], K[N_STAGES - 1, 2])
+        if _at_rest(u, v, ubar, rest_tol):
             if phase == 1:
                 u_max = max(u, ubar)
             return 0.0, t, u_max, n, _AT_REST
-        # q = gamma v u^beta + r, with gamma u^beta = w - v read off the state.
-        if gtilde > 0.0 and (phase > 1 or energy_in_phase1) and v * (w - v) + r > q_stuck:
+        if _cannot_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
             return 0.0, t, u_max, n, _STUCK
 
 
@@ -339,7 +361,7 @@ def _run_range(lo, hi, order, alpha, beta, gamma, gtilde, steps, rest_tol, max_s
 _BLOCK = 64
 
 
-@nb.njit(parallel=True, cache=True)
+@cached_njit(parallel=True)
 def _kernel_parallel(order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps,
                      e, t_f, u_max, n_steps, status):
     n = order.size
@@ -349,7 +371,7 @@ def _kernel_parallel(order, alpha, beta, gamma, gtilde, steps, rest_tol, max_ste
                    steps, rest_tol, max_steps, e, t_f, u_max, n_steps, status)
 
 
-@nb.njit(cache=True)
+@cached_njit()
 def _kernel_serial(order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps,
                    e, t_f, u_max, n_steps, status):
     _run_range(0, order.size, order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps,
@@ -357,16 +379,17 @@ def _kernel_serial(order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps
 
 
 def integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, parallel=None):
-    """Run the integrator over flat float64 arrays; returns a dict of flat result arrays.
+    """Run the integrator over flat float64 arrays.
+
+    Returns
+    -------
+    dict of str -> ndarray
+        One flat array per field of :func:`sweep.registry.kernel_fields`, in its dtype.
 
     ``parallel=None`` picks the parallel kernel when :func:`parallel_allowed`.
     """
     n = alpha.size
-    e = np.empty(n)
-    t_f = np.empty(n)
-    u_max = np.empty(n)
-    n_steps = np.empty(n, dtype=np.int64)
-    status = np.empty(n, dtype=np.int8)
+    out = {f.name: np.empty(n, dtype=f.dtype) for f in kernel_fields()}
     if parallel is None:
         parallel = parallel_allowed()
     if parallel and n > _BLOCK:
@@ -377,5 +400,13 @@ def integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, par
         order = np.arange(n)
         kernel = _kernel_serial
     kernel(order, alpha, beta, gamma, gtilde, float(steps), float(rest_tol), int(max_steps),
-           e, t_f, u_max, n_steps, status)
-    return {"e": e, "t_f": t_f, "u_max": u_max, "n_steps": n_steps, "status": status}
+           out["e"], out["t_f"], out["u_max"], out["n_steps"], out["status"])
+    return out
+
+
+def numeric_cor(alpha, beta, gamma, gtilde, steps=DEFAULT_STEPS, rest_tol=DEFAULT_REST_TOL,
+                max_steps=DEFAULT_MAX_STEPS, parallel=None):
+    """The ``"numeric"`` method's kernel (:data:`sweep.registry.METHODS`): ``(e, status)``
+    over flat float64 arrays of equal length."""
+    out = integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, parallel)
+    return out["e"], out["status"]

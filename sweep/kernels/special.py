@@ -4,7 +4,6 @@ Scalar ``numba`` functions, called from the kernels of :mod:`sweep.kernels.appro
 for tests). All quantities are dimensionless ("1").
 
 - :func:`beta_fn` -- Euler's Beta function ``B(x, y)`` (Def. 1);
-- :func:`umax_undamped` -- maximum compression ``u_M(g~)``, root of (13);
 - :func:`gtilde_of_theta`, :func:`theta_of_gtilde` -- the map (43) and its inverse;
 - :func:`jm_quadrature`, :func:`iq_quadrature` -- ``J, M`` of (47) and ``I, Q`` of Prop. 2
   by Gauss quadrature, to about 1e-15 relative;
@@ -30,7 +29,7 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["umax_undamped", "beta_fn", "gtilde_of_theta", "theta_of_gtilde", "jm_quadrature",
+__all__ = ["beta_fn", "gtilde_of_theta", "theta_of_gtilde", "jm_quadrature",
            "iq_quadrature", "jm_chebyshev", "iq_chebyshev", "chebyshev_tables", "iq_at_zero",
            "first_order_constants", "large_gtilde_constants", "THETA_MIN"]
 
@@ -39,31 +38,6 @@ _LGAMMA_HALF = 0.5 * math.log(math.pi)
 #: Smallest theta the inverse map returns; larger g~ (beyond ~1e149 at alpha = 1) are out of
 #: range and give NaN.
 THETA_MIN = 1e-300
-
-
-@nb.njit(cache=False, inline="always")
-def umax_undamped(alpha, gtilde):
-    """Undamped maximum compression ``u_M(g~)``, root of (13): ``u^(a+1)/(a+1) - g~ u = 1/2``.
-
-    Newton's method from an upper bound converges monotonically (the left side is convex in
-    u and increasing past the root), so a fixed number of iterations gives full precision.
-    """
-    ap1 = alpha + 1.0
-    u0 = (0.5 * ap1) ** (1.0 / ap1)
-    if gtilde <= 0.0:
-        return u0
-    # Upper bound: the root of u^(a+1)/(a+1) = 1/2 + g~ u is below u0 + (ap1 g~)^(1/a).
-    u = u0 + (ap1 * gtilde) ** (1.0 / alpha)
-    for _ in range(100):
-        ua = u ** alpha
-        f = u * ua / ap1 - gtilde * u - 0.5
-        df = ua - gtilde
-        du = f / df
-        u_new = u - du
-        if not (u_new < u):  # monotone decrease stalls at the root
-            break
-        u = u_new
-    return u
 
 
 @nb.njit(cache=True)

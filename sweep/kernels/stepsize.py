@@ -31,17 +31,21 @@ graded towards the singular point -- but not below ``first * h``, the size of th
 starts (or ends) exactly on u = 0. Both rho and first are proportional to h (see
 :func:`grading`), so the graded zone's error falls like ``h^5`` and the method keeps its
 order 5 (tests/test_convergence.py).
+
+Owns: the step-size rule. May import: contact.
 """
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba as nb
 
-from sweep.kernels.special import umax_undamped
+from sweep.kernels.contact import damping_rate, elastic_frequency, umax_undamped, well_depth
 
 __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "MAX_DEPTH_FACTOR", "base_step",
-           "damping_limited", "damping_step", "grading", "needs_grading", "graded_step"]
+           "damping_limited", "damping_step", "grading", "needs_grading", "graded_step",
+           "StepPolicy", "policy", "first_guess"]
 
 #: Ratio of step to distance from u = 0 inside the graded zone, at ``GRADE_STEPS``.
 GRADE_RATIO = 0.25
@@ -69,33 +73,27 @@ MAX_DEPTH_FACTOR = 16.0
 
 @nb.njit(inline="always")
 def _depth_factor(alpha, gtilde):
-    depth = gtilde * gtilde ** (1.0 / alpha) * alpha / (alpha + 1.0) if gtilde > 0.0 else 0.0
-    return min((1.0 + 2.0 * depth) ** 0.2, MAX_DEPTH_FACTOR)
+    return min((1.0 + 2.0 * well_depth(alpha, gtilde)) ** 0.2, MAX_DEPTH_FACTOR)
 
 
 @nb.njit(inline="always")
 def base_step(alpha, gtilde, steps):
     """Base step ``h = pi / (steps * omega_M * D)`` (module docstring)."""
     um = umax_undamped(alpha, gtilde)
-    return math.pi / (steps * math.sqrt(alpha * um ** (alpha - 1.0)) * _depth_factor(alpha, gtilde))
+    return math.pi / (steps * elastic_frequency(alpha, um) * _depth_factor(alpha, gtilde))
 
 
 @nb.njit(inline="always")
 def damping_limited(alpha, beta, gamma, gtilde):
     """Whether the damping cap can bind: damping rate at u_M above ``omega_M D``."""
     um = umax_undamped(alpha, gtilde)
-    return gamma * beta * um ** (beta - 1.0) > math.sqrt(alpha * um ** (alpha - 1.0)) * _depth_factor(alpha, gtilde)
+    return damping_rate(um, beta, gamma) > elastic_frequency(alpha, um) * _depth_factor(alpha, gtilde)
 
 
 @nb.njit(inline="always")
 def damping_step(u, beta, gamma, steps):
     """Cap ``pi / (steps * gamma beta u^(beta-1))`` (inf where the rate vanishes)."""
-    if beta == 1.0:
-        rate = gamma
-    elif u > 0.0:
-        rate = gamma * beta * u ** (beta - 1.0)
-    else:
-        rate = 0.0
+    rate = damping_rate(u, beta, gamma)
     return math.pi / (steps * rate) if rate > 0.0 else math.inf
 
 
@@ -113,3 +111,35 @@ def graded_step(u, v, h, rho, s_min):
         return h
     s = rho * u / av
     return s if s > s_min else s_min
+
+
+class StepPolicy(NamedTuple):
+    """The step-size rule of one point (module docstring)."""
+
+    h: float          # base step
+    rho: float        # grading ratio near u = 0
+    s_min: float      # smallest graded step
+    steps: float      # resolution, for the damping cap
+    graded: bool      # an exponent is not an integer: grade near u = 0
+    capped: bool      # the damping cap can bind
+
+
+@nb.njit(inline="always")
+def policy(c, steps):
+    """The :class:`StepPolicy` of the point with contact law ``c`` at resolution ``steps``."""
+    h = base_step(c.alpha, c.gtilde, steps)
+    rho, first = grading(steps)
+    return StepPolicy(h, rho, first * h, steps, needs_grading(c.alpha, c.beta),
+                      damping_limited(c.alpha, c.beta, c.gamma, c.gtilde))
+
+
+@nb.njit(inline="always")
+def first_guess(u, v, p, c):
+    """Step from state (u, v) before the damping cap is judged at the step's end."""
+    s = graded_step(u, v, p.h, p.rho, p.s_min) if p.graded else p.h
+    if p.capped:
+        # Judge the cap where the step may take the bead (speed and load push it deeper).
+        for _ in range(3):
+            s = min(s, damping_step(u + s * max(v, 0.0) + 0.5 * s * s * c.gtilde, c.beta,
+                                    c.gamma, p.steps))
+    return s

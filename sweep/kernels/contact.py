@@ -1,0 +1,225 @@
+"""The contact law: every formula of the physics the kernels evaluate, in one place.
+
+The report's law (1), scaled by (2), in the Lipschitz form of its Sec. 3 (state ``(u, w)``)::
+
+    u' = w - gamma u_+^beta        w' = g~ - u_+^alpha        v = w - gamma u_+^beta
+
+A point's parameters travel as one :class:`Law` (the exponents with the codes that select a
+pow-free evaluation of their powers, the damping and the load). The integrator, the
+step-size rule, the events and the approximations call the functions below; none of them
+writes a power of u, the velocity, the acceleration, the dissipated energy or a regime
+number (u-bar, xi, omega_n, u_M) again. A new contact law (another pair of exponents, or
+another form of the damping force) changes this module and :mod:`sweep.registry` only.
+
+Owns: the right-hand side, velocity, acceleration, dissipated energy, damping rate, regime
+numbers, the jitted domain test. May import: :mod:`sweep.registry`.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba as nb
+
+from sweep.registry import PARAMETERS
+
+__all__ = ["Law", "make_law", "power_kind", "ppow", "rhs", "velocity", "accel", "dissipated",
+           "damping_rate", "equilibrium", "well_depth", "damping_ratio", "natural_frequency",
+           "umax_undamped", "elastic_frequency", "in_domain", "KIND_ONE"]
+
+# Exponents of the report's models get a pow-free evaluation: pow() dominates the cost of a
+# stage, and sqrt is exact-rounded and several times cheaper.
+(KIND_ONE, _KIND_THREE_HALVES, _KIND_TWO, _KIND_FIVE_HALVES, _KIND_FIVE_FOURTHS, _KIND_THREE,
+ _KIND_ZERO, _KIND_HALF, _KIND_QUARTER) = range(9)
+_KIND_GENERAL = 99
+
+_ALPHA_MIN = PARAMETERS["alpha"].minimum
+_BETA_MIN = PARAMETERS["beta"].minimum
+_GAMMA_MIN = PARAMETERS["gamma"].minimum
+_GTILDE_MIN = PARAMETERS["gtilde"].minimum
+
+
+class Law(NamedTuple):
+    """Scaled parameters of one point and the :func:`power_kind` codes of its powers."""
+
+    alpha: float
+    beta: float
+    gamma: float
+    gtilde: float
+    ka: int       # kind of alpha
+    kb: int       # kind of beta
+    kd: int       # kind of beta - 1
+
+
+@nb.njit(inline="always")
+def in_domain(alpha, beta, gamma, gtilde):
+    """The point lies in :data:`sweep.registry.PARAMETERS` (finite, above the minima)."""
+    return (alpha >= _ALPHA_MIN and beta >= _BETA_MIN and gamma >= _GAMMA_MIN
+            and gtilde >= _GTILDE_MIN and math.isfinite(alpha) and math.isfinite(beta)
+            and math.isfinite(gamma) and math.isfinite(gtilde))
+
+
+@nb.njit
+def power_kind(p):
+    """Code selecting the evaluation of ``x**p`` in :func:`ppow`."""
+    if p == 1.0:
+        return KIND_ONE
+    if p == 1.5:
+        return _KIND_THREE_HALVES
+    if p == 2.0:
+        return _KIND_TWO
+    if p == 2.5:
+        return _KIND_FIVE_HALVES
+    if p == 1.25:
+        return _KIND_FIVE_FOURTHS
+    if p == 3.0:
+        return _KIND_THREE
+    if p == 0.0:
+        return _KIND_ZERO
+    if p == 0.5:
+        return _KIND_HALF
+    if p == 0.25:
+        return _KIND_QUARTER
+    return _KIND_GENERAL
+
+
+@nb.njit(inline="always")
+def make_law(alpha, beta, gamma, gtilde):
+    """The :class:`Law` of a point (its power codes computed once)."""
+    return Law(alpha, beta, gamma, gtilde, power_kind(alpha), power_kind(beta),
+               power_kind(beta - 1.0))
+
+
+@nb.njit(inline="always")
+def ppow(x, p, kind):
+    """``x**p`` for ``x > 0``, and 0 for ``x <= 0`` (the report's ``x_+^p``; also for p = 0,
+    where it is the indicator of contact, closed at x = 0: the bead is in contact from its
+    first instant, so the damper acts at tau = 0)."""
+    if kind == _KIND_ZERO:
+        return 1.0 if x >= 0.0 else 0.0
+    if x <= 0.0:
+        return 0.0
+    if kind == KIND_ONE:
+        return x
+    if kind == _KIND_THREE_HALVES:
+        return x * math.sqrt(x)
+    if kind == _KIND_TWO:
+        return x * x
+    if kind == _KIND_FIVE_HALVES:
+        return x * x * math.sqrt(x)
+    if kind == _KIND_FIVE_FOURTHS:
+        return x * math.sqrt(math.sqrt(x))
+    if kind == _KIND_THREE:
+        return x * x * x
+    if kind == _KIND_HALF:
+        return math.sqrt(x)
+    if kind == _KIND_QUARTER:
+        return math.sqrt(math.sqrt(x))
+    return x ** p
+
+
+@nb.njit(inline="always")
+def rhs(u, w, c):
+    """Right-hand side of (4) and of the dissipation integral: returns ``(u', w', r')``.
+
+    The energy dissipated by the damper is ``q = int gamma beta u^(beta-1) v^2 dtau``; by
+    parts (``beta u^(beta-1) v = d(u^beta)/dtau``) ``q = gamma v u_+^beta + r`` with
+    ``r' = -gamma u_+^beta v'``, ``v' = g~ - u_+^alpha - gamma beta u_+^(beta-1) v``. The
+    integrand of r has only powers >= 1 of u, as smooth at u = 0 as the rest of (4), where
+    that of q (``u^(beta-1)``, e.g. ``u^(1/4)`` for TTI) would cost the method its order.
+    Carrying r gives the CoR from the energy balance ``e^2 = 1 - 2 q(T_f) = 1 - 2 r(T_f)``
+    (exactly 1 without damping), far better conditioned than ``e = -w`` after a swing
+    through a deep load well.
+    """
+    pd = ppow(u, c.beta - 1.0, c.kd)
+    pb = u * pd if u > 0.0 else 0.0
+    # Equal exponents (linear, Kuwabara-Kono) share the one power: it is most of a stage's cost.
+    pa = pb if c.alpha == c.beta else ppow(u, c.alpha, c.ka)
+    v = w - c.gamma * pb
+    return v, c.gtilde - pa, -c.gamma * pb * (c.gtilde - pa - c.gamma * c.beta * pd * v)
+
+
+@nb.njit(inline="always")
+def velocity(u, w, c):
+    """``v = w - gamma u_+^beta``: the bead's velocity from the Lipschitz state (4)."""
+    return w - c.gamma * ppow(u, c.beta, c.kb)
+
+
+@nb.njit(inline="always")
+def accel(u, v, c):
+    """``dv/dtau = g~ - u^alpha - gamma beta u^(beta-1) v`` for u >= 0 (eq. (1) scaled)."""
+    return c.gtilde - ppow(u, c.alpha, c.ka) - c.gamma * c.beta * ppow(u, c.beta - 1.0, c.kd) * v
+
+
+@nb.njit(inline="always")
+def dissipated(u, v, r, c):
+    """Energy dissipated so far, ``q = gamma v u_+^beta + r`` (see :func:`rhs`)."""
+    return c.gamma * v * ppow(u, c.beta, c.kb) + r
+
+
+@nb.njit(inline="always")
+def damping_rate(u, beta, gamma):
+    """Local damping rate ``gamma beta u^(beta-1)`` [1/tau] (0 out of contact)."""
+    if beta == 1.0:
+        return gamma
+    if u > 0.0:
+        return gamma * beta * u ** (beta - 1.0)
+    return 0.0
+
+
+@nb.njit(inline="always")
+def equilibrium(alpha, gtilde):
+    """Static equilibrium compression ``u-bar = g~^(1/alpha)`` (report Sec. 3)."""
+    return gtilde ** (1.0 / alpha) if gtilde > 0.0 else 0.0
+
+
+@nb.njit(inline="always")
+def well_depth(alpha, gtilde):
+    """Depth ``|V(u-bar)| = g~ u-bar alpha/(alpha+1)`` of the potential well of the load."""
+    return gtilde * equilibrium(alpha, gtilde) * alpha / (alpha + 1.0) if gtilde > 0.0 else 0.0
+
+
+@nb.njit(inline="always")
+def natural_frequency(alpha, gtilde):
+    """Linearised angular frequency about u-bar, ``omega_n = sqrt(alpha) g~^((alpha-1)/(2 alpha))``."""
+    return math.sqrt(alpha) * gtilde ** ((alpha - 1.0) / (2.0 * alpha))
+
+
+@nb.njit(inline="always")
+def damping_ratio(alpha, beta, gamma, gtilde):
+    """Linearised damping ratio about u-bar (underdamped iff < 1)::
+
+        xi = gamma beta / (2 sqrt(alpha)) g~^((2 beta - alpha - 1) / (2 alpha))
+    """
+    return gamma * beta / (2.0 * math.sqrt(alpha)) * gtilde ** ((2.0 * beta - alpha - 1.0) / (2.0 * alpha))
+
+
+@nb.njit(inline="always")
+def umax_undamped(alpha, gtilde):
+    """Undamped maximum compression ``u_M(g~)``, root of (13): ``u^(a+1)/(a+1) - g~ u = 1/2``.
+
+    Newton's method from an upper bound converges monotonically (the left side is convex in
+    u and increasing past the root), so a fixed number of iterations gives full precision.
+    """
+    ap1 = alpha + 1.0
+    u0 = (0.5 * ap1) ** (1.0 / ap1)
+    if gtilde <= 0.0:
+        return u0
+    # Upper bound: the root of u^(a+1)/(a+1) = 1/2 + g~ u is below u0 + (ap1 g~)^(1/a).
+    u = u0 + (ap1 * gtilde) ** (1.0 / alpha)
+    for _ in range(100):
+        ua = u ** alpha
+        f = u * ua / ap1 - gtilde * u - 0.5
+        df = ua - gtilde
+        du = f / df
+        u_new = u - du
+        if not (u_new < u):  # monotone decrease stalls at the root
+            break
+        u = u_new
+    return u
+
+
+@nb.njit(inline="always")
+def elastic_frequency(alpha, u):
+    """Linearised elastic frequency ``sqrt(alpha u^(alpha-1))`` at compression u."""
+    return math.sqrt(alpha * u ** (alpha - 1.0))

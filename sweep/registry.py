@@ -1,0 +1,461 @@
+"""The facts every floor reads: domains, status codes, contact laws, methods and output fields.
+
+This is the ground floor of the package. Each fact lives here once; the kernels, the api,
+the configuration parser, the store and the reports read it from here:
+
+* :class:`Status` -- why the computation of a point ended (integer codes stored in files);
+* :data:`PARAMETERS` -- the four scaled numbers of the report's eq. (2) and their domain
+  (Assumption 1 of the report and physical signs), with :func:`valid_points`,
+  :func:`check_scalar` and :func:`check_array` to apply it;
+* :data:`PHYSICAL` -- the physical inputs of the scaling (2) and their domain;
+* :data:`MODELS` -- the report's named contact laws (alpha, beta);
+* :data:`METHODS` -- every way of computing the CoR: name, kernel, options, long name,
+  equation, domain (:func:`register_method` adds one);
+* :data:`FIELDS` -- the per-point outputs of the integrator and the fields derived from them:
+  name, dtype, units, long_name, description, fill value (:func:`register_field`).
+
+Adding a method is one :class:`Method` entry here plus its kernel; adding an output field is
+one :class:`Field` entry plus the kernel code that fills it (see the README's contributor
+section).
+
+Owns: the facts above. May import: nothing from ``sweep`` (numpy only).
+"""
+from __future__ import annotations
+
+import dataclasses
+import enum
+import importlib
+import math
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "MODELS",
+           "Option", "Method", "METHODS", "Field", "FIELDS", "valid_points", "check_scalar",
+           "check_array", "register_method", "unregister_method", "register_field",
+           "unregister_field", "method", "approximations", "integrator_fields",
+           "kernel_fields", "variable_names", "REPORT"]
+
+#: The report every equation number refers to.
+REPORT = ("A. Chatterjee, G. James, B. Brogliato, Approximate analytical coefficient of "
+          "restitution formulation for single bead impact with external load, using "
+          "nonlinear visco-elastic models, INRIA hal-03462750 (2021)")
+
+
+class Status(enum.IntEnum):
+    """Why the computation of one point ended.
+
+    The integer values are stored in datasets (``status`` variable); never renumber them.
+    """
+
+    #: The bead detached (u = 0 with v < 0): ``e = -v`` at detachment.
+    OK = 0
+    #: The bead does not rebound (v = 0 with 0 < u <= u-bar in phase 3, or its energy fell
+    #: below the floor level, from which it can never return to u = 0): ``e = 0``.
+    STUCK = 1
+    #: Converged to rest, ``max(|u - u-bar|, |v|) < rest_tol`` (report, Sec. 3): ``e = 0``.
+    AT_REST = 2
+    #: The step budget ran out before the outcome was decided. ``e = sqrt(2 H)``, the bound
+    #: on the rebound speed set by the energy still available, not a converged value.
+    BUDGET_EXHAUSTED = 3
+    #: Invalid input (alpha < 1, beta < 1, gamma < 0, g~ < 0, non-finite, or an
+    #: approximation used outside its domain): ``e = NaN``.
+    INVALID = 4
+
+
+# --------------------------------------------------------------------------- domains
+
+@dataclasses.dataclass(frozen=True)
+class Parameter:
+    """A real input and its domain: finite and ``>= minimum`` (``> minimum`` if strict).
+
+    Attributes
+    ----------
+    name : str
+        Keyword and dataset name.
+    long_name, description : str
+        CF attributes (the description cites the report's equation).
+    minimum : float
+        Lower bound of the domain.
+    strict : bool
+        The bound itself is excluded.
+    rule : str
+        The domain in words, for error messages ("must be ...").
+    units : str
+        CF units.
+    """
+
+    name: str
+    long_name: str
+    description: str
+    minimum: float
+    strict: bool = False
+    rule: str = ""
+    units: str = "1"
+
+    def ok(self, value: Any) -> Any:
+        """Elementwise: inside the domain (finite and above the bound)."""
+        x = np.asarray(value, dtype=np.float64)
+        above = x > self.minimum if self.strict else x >= self.minimum
+        return np.isfinite(x) & above
+
+
+_UNIQUENESS = ">= 1 (uniqueness is not known below 1)"
+
+#: The four scaled numbers of eq. (2), in dataset dimension order.
+PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
+    Parameter("alpha", "stiffness exponent alpha",
+              "exponent of the elastic contact force k (-x)_+^alpha, report eq. (1)",
+              1.0, rule=_UNIQUENESS),
+    Parameter("beta", "damping exponent beta",
+              "exponent of the damping force k gamma0 d/dt (-x)_+^beta, report eq. (1)",
+              1.0, rule=_UNIQUENESS),
+    Parameter("gamma", "scaled damping gamma",
+              "gamma = gamma0 v0^(2 beta/(alpha+1) - 1) (k/m)^(1 - beta/(alpha+1)), "
+              "report eq. (2)", 0.0, rule=">= 0"),
+    Parameter("gtilde", "scaled load g~",
+              "g~ = (m/k)^(1/(alpha+1)) v0^(-2 alpha/(alpha+1)) (g + F/m), report eq. (2)",
+              0.0, rule=">= 0 (a compressive load)"),
+)}
+PARAMETER_NAMES = tuple(PARAMETERS)
+
+#: Physical inputs of the scaling (2). g and F may take either sign; g + F/m >= 0 is
+#: checked by :func:`sweep.model.scale`.
+PHYSICAL: dict[str, Parameter] = {p.name: p for p in (
+    Parameter("m", "bead mass", "mass m of the bead, report eq. (1)", 0.0, True,
+              "> 0 [kg]", "kg"),
+    Parameter("k", "contact stiffness", "stiffness k of the contact law, report eq. (1)",
+              0.0, True, "> 0 [N m^-alpha]", "N m-alpha"),
+    Parameter("gamma0", "damping coefficient",
+              "gamma0 of the damping force k gamma0 d/dt (-x)_+^beta, report eq. (1)",
+              0.0, False, ">= 0 [s m^(alpha-beta)]", "s m(alpha-beta)"),
+    Parameter("v0", "impact speed", "speed of the bead when it touches the floor", 0.0, True,
+              "> 0 [m/s]", "m s-1"),
+    Parameter("g", "gravitational acceleration", "acceleration of gravity", -math.inf, False,
+              "finite [m/s^2]", "m s-2"),
+    Parameter("F", "external load", "constant compressive force on the bead", -math.inf,
+              False, "finite [N]", "N"),
+)}
+
+#: The report's named contact laws: name -> (alpha, beta) (report Table 1).
+MODELS: dict[str, tuple[float, float]] = {
+    "linear": (1.0, 1.0),
+    "hertz": (1.5, 1.0),
+    "tti": (1.5, 1.25),
+    "kk": (1.5, 1.5),
+    "shc": (1.5, 2.5),
+}
+
+
+def valid_points(alpha: Any, beta: Any, gamma: Any, gtilde: Any) -> np.ndarray:
+    """Elementwise: the point ``(alpha, beta, gamma, g~)`` is inside :data:`PARAMETERS`."""
+    values = dict(zip(PARAMETER_NAMES, (alpha, beta, gamma, gtilde)))
+    masks = [PARAMETERS[n].ok(v) for n, v in values.items()]
+    return np.logical_and.reduce(np.broadcast_arrays(*masks))
+
+
+def _first_bad(value: np.ndarray, good: np.ndarray) -> float:
+    bad = ~np.broadcast_to(good, value.shape)
+    return value.reshape(-1)[np.flatnonzero(bad)[0]]
+
+
+def _message(name: str, parameter: Parameter, value: np.ndarray) -> str | None:
+    finite = np.isfinite(value)
+    if not finite.all():
+        return f"{name} must be finite, got {float(_first_bad(value, finite))!r}"
+    good = parameter.ok(value)
+    if not np.all(good):
+        return f"{name} must be {parameter.rule}, got {float(_first_bad(value, good))!r}"
+    return None
+
+
+def check_array(name: str, value: Any, domain: Mapping[str, Parameter] | None = None) -> np.ndarray:
+    """Every element of ``value`` must lie in the domain of parameter ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A key of ``domain`` (default :data:`PARAMETERS`, then :data:`PHYSICAL`).
+    value : array_like
+
+    Returns
+    -------
+    ndarray of float64
+
+    Raises
+    ------
+    ValueError
+        One line naming the parameter and the first offending value.
+    """
+    parameter = (domain or {**PARAMETERS, **PHYSICAL})[name]
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a real number or array of them, got {value!r}") from None
+    message = _message(name, parameter, arr)
+    if message:
+        raise ValueError(message)
+    return arr
+
+
+def check_scalar(name: str, value: float) -> None:
+    """Raise ``ValueError`` naming ``value`` if it lies outside the domain of ``name``."""
+    check_array(name, value)
+
+
+# --------------------------------------------------------------------------- methods
+
+@dataclasses.dataclass(frozen=True)
+class Option:
+    """A keyword option of a method: its default and its rule.
+
+    ``check(value) -> bool`` must accept the default; a value of None means the default.
+    """
+
+    name: str
+    default: Any
+    check: Callable[[Any], bool]
+    rule: str
+
+
+def _is_int(v: Any) -> bool:
+    # TOML and JSON booleans are Python bools, which are ints: never accept them as numbers.
+    return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+
+
+def _is_number(v: Any) -> bool:
+    return (_is_int(v) or isinstance(v, (float, np.floating))) and math.isfinite(v)
+
+
+@dataclasses.dataclass(frozen=True)
+class Method:
+    """One way of computing the CoR.
+
+    Attributes
+    ----------
+    name : str
+        ``method=`` value; stored as ``e_<name>`` (and ``error_<name>`` for approximations).
+    long_name, description : str
+        CF attributes; the description gives the formula and the report's equation.
+    equation : str
+        The report's equation numbers.
+    kernel : str or callable
+        ``"module:function"`` (resolved on first use, so this floor imports no kernel) or a
+        callable ``kernel(alpha, beta, gamma, gtilde, **options) -> (e, status)`` on flat
+        float64 arrays of equal length.
+    options : tuple of Option
+        Keyword options the kernel accepts.
+    models : tuple of (alpha, beta), optional
+        The only exponents where the method is defined (None: everywhere in the domain).
+    integrates : bool
+        The method is the numerical integration (its fields are :func:`integrator_fields`).
+    """
+
+    name: str
+    long_name: str
+    description: str
+    equation: str
+    kernel: str | Callable[..., tuple[np.ndarray, np.ndarray]]
+    options: tuple[Option, ...] = ()
+    models: tuple[tuple[float, float], ...] | None = None
+    integrates: bool = False
+
+    def resolve(self) -> Callable[..., tuple[np.ndarray, np.ndarray]]:
+        """The kernel as a callable (imports its module on first use)."""
+        if callable(self.kernel):
+            return self.kernel
+        module, _, attr = self.kernel.partition(":")
+        return getattr(importlib.import_module(module), attr)
+
+    def option(self, name: str) -> Option:
+        for opt in self.options:
+            if opt.name == name:
+                return opt
+        raise KeyError(name)
+
+    def check_options(self, options: Mapping[str, Any]) -> dict[str, Any]:
+        """Validate keyword options; returns them with defaults filled in.
+
+        Raises
+        ------
+        ValueError
+            Unknown option, or a value its rule rejects (one line naming it).
+        """
+        known = {opt.name: opt for opt in self.options}
+        for key in options:
+            if key not in known:
+                allowed = ", ".join(known) or "none"
+                raise ValueError(f"unknown option {key!r} for method {self.name!r}; "
+                                 f"allowed: {allowed}")
+        out = {}
+        for key, opt in known.items():
+            value = options.get(key)
+            if value is None:
+                value = opt.default
+            if value is not None and not opt.check(value):
+                raise ValueError(f"{key} must be {opt.rule}, got {value!r}")
+            out[key] = value
+        return out
+
+    def defined_at(self, alpha: Any, beta: Any) -> np.ndarray:
+        """Elementwise: the method is defined at these exponents."""
+        if self.models is None:
+            return np.ones(np.broadcast(alpha, beta).shape, dtype=bool)
+        a, b = np.asarray(alpha), np.asarray(beta)
+        return np.logical_or.reduce([(a == ma) & (b == mb) for ma, mb in self.models])
+
+
+_INTEGRATOR_OPTIONS = (
+    Option("steps", 96.0, lambda v: _is_number(v) and v >= 2,
+           "a number >= 2 (steps per half period of the stiffest linearised motion)"),
+    Option("rest_tol", 1e-8, lambda v: _is_number(v) and v > 0,
+           "a number > 0 (rest criterion of the report, Sec. 3)"),
+    Option("max_steps", 200_000, lambda v: _is_number(v) and v >= 1 and float(v).is_integer(),
+           "an integer >= 1 (step budget per point)"),
+)
+_CHEBYSHEV_N = Option("n", 21, lambda v: _is_int(v) and v >= 1 and v % 2 == 1,
+                      "an odd integer >= 1 (number of Chebyshev nodes, eq. (49))")
+_ORD2 = ("e = min(sqrt(max(e^2, 0)), e_s), report Prop. 2, eqs. (36)-(38), with I(g~) and "
+         "Q(g~) ")
+
+#: Every method ``sweep.cor`` accepts, in a stable order (datasets store them in it).
+METHODS: dict[str, Method] = {m.name: m for m in (
+    Method("numeric", "coefficient of restitution, numerical integration",
+           "e = -v(T_f) (report eq. (3)) from the fixed-step Runge-Kutta integration of the "
+           "(u, w) system, eq. (4), through the three phases of Algorithm 1; 0 if the bead "
+           "sticks or comes to rest", "(3), (4), Algorithm 1",
+           "sweep.kernels.integrator:numeric_cor", _INTEGRATOR_OPTIONS, integrates=True),
+    Method("ord1", "coefficient of restitution, first-order approximation",
+           "e = max(1 - gamma C0 - gamma g~ C1, 0), report eq. (22)", "(22)",
+           "sweep.kernels.approx:ord1"),
+    Method("sp", "coefficient of restitution, Schwager-Poeschel second order",
+           "e = 1 - gamma C0 - gamma g~ C1 - gamma^2 C2, report eqs. (25) and (30); defined "
+           "for alpha = beta = 3/2 only (NaN elsewhere)", "(25), (30)",
+           "sweep.kernels.approx:sp", models=((1.5, 1.5),)),
+    Method("large_gtilde", "coefficient of restitution, large-load approximation",
+           "e = sqrt(max(1 - 2 gamma C g~^r, 0)), report eq. (23)", "(23)",
+           "sweep.kernels.approx:large_gtilde"),
+    Method("ord2_numint", "coefficient of restitution, second order with quadrature I, Q",
+           _ORD2 + "by quadrature", "(36)-(38)", "sweep.kernels.approx:ord2_numint"),
+    Method("ord2_approx", "coefficient of restitution, second order with approximated I, Q",
+           _ORD2 + "from the approximation of Sec. 4.4, eqs. (43)-(49)", "(36)-(38), (43)-(53)",
+           "sweep.kernels.approx:ord2_approx", (_CHEBYSHEV_N,)),
+)}
+
+
+def method(name: str) -> Method:
+    """The registered method ``name``.
+
+    Raises
+    ------
+    ValueError
+        Unknown method (one line listing the known ones).
+    """
+    try:
+        return METHODS[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"method must be one of {tuple(METHODS)}, got {name!r}") from None
+
+
+def approximations() -> tuple[str, ...]:
+    """Names of the closed-form methods (every method but the integration), in order."""
+    return tuple(name for name, m in METHODS.items() if not m.integrates)
+
+
+def register_method(m: Method) -> None:
+    """Add a method; ``sweep.cor``, configurations and datasets accept it at once."""
+    if m.name in METHODS:
+        raise ValueError(f"method {m.name!r} is already registered")
+    METHODS[m.name] = m
+
+
+def unregister_method(name: str) -> None:
+    """Remove a method added by :func:`register_method`."""
+    METHODS.pop(name)
+
+
+# --------------------------------------------------------------------------- output fields
+
+@dataclasses.dataclass(frozen=True)
+class Field:
+    """A per-point output of the numerical integration.
+
+    Attributes
+    ----------
+    name : str
+        Attribute of ``sweep.IntegrationResult`` and dataset variable name.
+    dtype : numpy dtype
+    long_name, description, units : str
+        CF attributes.
+    fill_value : scalar or None
+        Value marking an invalid point (None: every value is meaningful).
+    derived : callable, optional
+        ``derived(fields) -> array`` computes the field from the kernel's fields (a dict);
+        None for fields the kernel fills itself.
+    flags : mapping, optional
+        For flag variables: meaning -> value (CF ``flag_values`` / ``flag_meanings``).
+    """
+
+    name: str
+    dtype: np.dtype
+    long_name: str
+    description: str
+    units: str = "1"
+    fill_value: Any = None
+    derived: Callable[[Mapping[str, np.ndarray]], np.ndarray] | None = None
+    flags: Mapping[str, int] | None = None
+
+
+def _sticks(fields: Mapping[str, np.ndarray]) -> np.ndarray:
+    status = fields["status"]
+    return (status == Status.STUCK) | (status == Status.AT_REST)
+
+
+#: Per-point outputs of the integration, in storage order (``e`` is stored as e_numeric).
+FIELDS: dict[str, Field] = {f.name: f for f in (
+    Field("e", np.dtype(np.float64), METHODS["numeric"].long_name,
+          METHODS["numeric"].description, fill_value=math.nan),
+    Field("sticks", np.dtype(np.bool_), "bead does not rebound",
+          "true if the impact ends without rebound, e = 0 (Algorithm 1, phase 3: v = 0 with "
+          "u > 0, or converged to rest)", derived=_sticks),
+    Field("t_f", np.dtype(np.float64), "impact duration T_f",
+          "scaled time T_f at the end of the impact (report eq. (3)), in units of T of "
+          "eq. (2)", fill_value=math.nan),
+    Field("u_max", np.dtype(np.float64), "maximum compression u_M",
+          "scaled maximum compression u(tau_0) where v = 0 (Algorithm 1, phase 1), in units "
+          "of delta = v0 T of eq. (2)", fill_value=math.nan),
+    Field("n_steps", np.dtype(np.int64), "number of integration steps",
+          "Runge-Kutta steps taken to integrate eq. (4) for this point"),
+    Field("status", np.dtype(np.int8), "integration status",
+          "why the numerical computation of the point ended (Algorithm 1): "
+          + ", ".join(f"{s.value} = {s.name.lower()}" for s in Status),
+          flags={s.name.lower(): s.value for s in Status}),
+)}
+
+
+def integrator_fields() -> tuple[str, ...]:
+    """Fields a sweep can store besides e (``outputs.fields``), in storage order."""
+    return tuple(name for name in FIELDS if name != "e")
+
+
+def kernel_fields() -> tuple[Field, ...]:
+    """Fields the integration kernel fills itself (the others are derived from them)."""
+    return tuple(f for f in FIELDS.values() if f.derived is None)
+
+
+def register_field(f: Field) -> None:
+    """Add an output field (its kernel must fill it, or ``derived`` compute it)."""
+    if f.name in FIELDS:
+        raise ValueError(f"field {f.name!r} is already registered")
+    FIELDS[f.name] = f
+
+
+def unregister_field(name: str) -> None:
+    """Remove a field added by :func:`register_field`."""
+    FIELDS.pop(name)
+
+
+def variable_names(methods: tuple[str, ...], fields: tuple[str, ...]) -> tuple[str, ...]:
+    """Dataset variables of a sweep storing ``methods`` and ``fields``, in storage order."""
+    return tuple(f"e_{m}" for m in methods) + tuple(fields)
