@@ -42,9 +42,12 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     [run]
     chunk_size = 131072            # points per chunk (resume and progress granularity)
 
-This module sits on the lowest floor of the package: it imports nothing from ``sweep``
-(not the kernels, not numba), so it keeps its own list of method names; a test checks that
-it matches ``sweep.api.METHODS``.
+Methods, their options, output fields and parameter domains are read from
+:mod:`sweep.registry` when a configuration is parsed, so a method registered there is
+accepted here at once.
+
+Owns: the configuration format and its validation. May import: :mod:`sweep.registry`
+(no kernels, no numba).
 """
 from __future__ import annotations
 
@@ -58,6 +61,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from sweep import registry
+
 try:  # Python >= 3.11
     import tomllib
 except ModuleNotFoundError:  # pragma: no cover - Python 3.10
@@ -70,15 +75,13 @@ __all__ = [
 ]
 
 #: The four scaled parameters of the report's eq. (2), in dataset dimension order.
-PARAMETERS = ("alpha", "beta", "gamma", "gtilde")
+PARAMETERS = registry.PARAMETER_NAMES
 
-#: CoR methods, as in ``sweep.api.METHODS`` ("numeric" is the integrator, the rest are the
-#: closed-form approximations of the report's Sections 4-5).
-METHODS = ("numeric", "ord1", "sp", "large_gtilde", "ord2_numint", "ord2_approx")
-APPROXIMATIONS = tuple(m for m in METHODS if m != "numeric")
-
-#: Per-point outputs of the numerical integration besides e (Sec. 2 of SPEC).
-INTEGRATOR_FIELDS = ("sticks", "t_f", "u_max", "n_steps", "status")
+#: The built-in CoR methods and fields (snapshots of :mod:`sweep.registry`; parsing reads the
+#: registry itself, so methods registered later are accepted too).
+METHODS = tuple(registry.METHODS)
+APPROXIMATIONS = registry.approximations()
+INTEGRATOR_FIELDS = registry.integrator_fields()
 
 #: Samplers of a design of experiments (scipy.stats.qmc, or plain pseudo-random).
 SAMPLERS = ("sobol", "lhs", "random")
@@ -89,23 +92,6 @@ SOBOL_MAX_POINTS = 2 ** 30
 LHS_MAX_POINTS = 2 ** 24
 
 DEFAULT_CHUNK_SIZE = 2 ** 17
-
-#: Options accepted per approximation method: name -> (checker, description).
-METHOD_OPTIONS = {
-    "ord2_approx": {
-        "n": (lambda v: _is_int(v) and v >= 1 and v % 2 == 1,
-              "an odd integer >= 1 (number of Chebyshev nodes, eq. (49))"),
-    },
-}
-
-#: Domain of each parameter: (predicate, rule text), Assumption 1 of the report and signs.
-_DOMAIN = {
-    "alpha": (lambda v: v >= 1.0, ">= 1 (uniqueness is not known below 1)"),
-    "beta": (lambda v: v >= 1.0, ">= 1 (uniqueness is not known below 1)"),
-    "gamma": (lambda v: v >= 0.0, ">= 0"),
-    "gtilde": (lambda v: v >= 0.0, ">= 0 (a compressive load)"),
-}
-
 
 class ConfigError(ValueError):
     """A configuration is invalid; the message names the key and the offending value."""
@@ -180,9 +166,9 @@ class _Table:
 
 
 def _check_domain(tab, key, name, value):
-    ok, rule = _DOMAIN[name]
-    if not ok(value):
-        tab.error(key, f"must be {rule}", value)
+    parameter = registry.PARAMETERS[name]
+    if not parameter.ok(value):
+        tab.error(key, f"must be {parameter.rule}", value)
 
 
 # --------------------------------------------------------------------------- design specs
@@ -397,14 +383,15 @@ class Outputs:
     def needs_integration(self):
         """The numerical integration runs (once) iff e_numeric, an integrator field or an
         error field (which all compare against e_numeric) is requested."""
-        return ("numeric" in self.methods or any(f in INTEGRATOR_FIELDS for f in self.fields)
+        return ("numeric" in self.methods
+                or any(f in registry.integrator_fields() for f in self.fields)
                 or bool(self.error_methods))
 
     @property
     def approximations(self):
         """Approximations to evaluate: stored, or needed by an error field."""
         wanted = set(self.methods) | set(self.error_methods)
-        return tuple(m for m in APPROXIMATIONS if m in wanted)
+        return tuple(m for m in registry.approximations() if m in wanted)
 
 
 def _name_list(tab, key, allowed, what):
@@ -421,83 +408,97 @@ def _name_list(tab, key, allowed, what):
     return tuple(value)
 
 
+def _check_field(tab, f):
+    approximations = registry.approximations()
+    if f == "error_numeric":
+        tab.error("fields", "error fields compare an approximation with e_numeric; "
+                            "error_numeric would be identically 0", f)
+    if f.startswith("error_"):
+        if f[len("error_"):] not in approximations:
+            tab.error("fields", "unknown approximation in error field; expected "
+                      f"error_<{'|'.join(approximations)}>", f)
+    elif f not in registry.integrator_fields():
+        tab.error("fields", "unknown field; expected one of "
+                  f"{', '.join(registry.integrator_fields())} or error_<method>", f)
+
+
 def _parse_outputs(tab):
-    methods = ()
+    methods = fields = ()
+    all_methods = tuple(registry.METHODS)
     if tab.has("e"):
-        methods = _name_list(tab, "e", METHODS, "method")
+        methods = _name_list(tab, "e", all_methods, "method")
         for m in methods:
-            if m not in METHODS:
-                tab.error("e", f"unknown method; expected one of {', '.join(METHODS)}", m)
-    fields = ()
+            if m not in all_methods:
+                tab.error("e", f"unknown method; expected one of {', '.join(all_methods)}", m)
+    errors = tuple(f"error_{m}" for m in registry.approximations())
     if tab.has("fields"):
-        all_fields = INTEGRATOR_FIELDS + tuple(f"error_{m}" for m in APPROXIMATIONS
-                                               if m in methods)
-        fields = _name_list(tab, "fields", all_fields, "field")
+        fields = _name_list(tab, "fields", registry.integrator_fields()
+                            + tuple(e for e in errors if e[len("error_"):] in methods), "field")
         for f in fields:
-            if f == "error_numeric":
-                tab.error("fields", "error fields compare an approximation with e_numeric; "
-                                    "error_numeric would be identically 0", f)
-            if f.startswith("error_"):
-                if f[len("error_"):] not in APPROXIMATIONS:
-                    tab.error("fields", "unknown approximation in error field; expected "
-                              f"error_<{'|'.join(APPROXIMATIONS)}>", f)
-            elif f not in INTEGRATOR_FIELDS:
-                tab.error("fields", f"unknown field; expected one of {', '.join(INTEGRATOR_FIELDS)}"
-                                    " or error_<method>", f)
+            _check_field(tab, f)
     tab.used.update({"e", "fields"})
     tab.finish()
     if not methods and not fields:
         tab.error("e", "nothing to compute: request at least one method in outputs.e or a "
                        "field in outputs.fields", [])
     # Stable order whatever the order in the file: equal configs give equal datasets.
-    order = {name: i for i, name in enumerate(METHODS)}
-    methods = tuple(sorted(methods, key=order.__getitem__))
-    forder = {name: i for i, name in enumerate(
-        INTEGRATOR_FIELDS + tuple(f"error_{m}" for m in APPROXIMATIONS))}
-    fields = tuple(sorted(fields, key=forder.__getitem__))
-    return Outputs(methods=methods, fields=fields)
+    order = {name: i for i, name in enumerate(all_methods)}
+    forder = {name: i for i, name in enumerate(registry.integrator_fields() + errors)}
+    return Outputs(methods=tuple(sorted(methods, key=order.__getitem__)),
+                   fields=tuple(sorted(fields, key=forder.__getitem__)))
 
 
 # --------------------------------------------------------------------------- integrator
 
 @dataclasses.dataclass(frozen=True)
 class IntegratorSettings:
-    """Keyword arguments of ``sweep.api.integrate``; None means the package default."""
+    """Options of the ``"numeric"`` method (:data:`sweep.registry.METHODS`) given in the file.
 
-    steps: float | None = None
-    rest_tol: float = 1e-8
-    max_steps: int | None = None
+    ``given`` holds ``(name, value)`` pairs in name order; options not given take the
+    package default. Attribute access (``settings.steps``) reads :meth:`kwargs`.
+    """
+
+    given: tuple = ()
 
     def kwargs(self):
-        return {"steps": self.steps, "rest_tol": self.rest_tol, "max_steps": self.max_steps}
+        """Keyword arguments of ``sweep.api.integrate``, defaults filled in."""
+        return registry.METHODS["numeric"].check_options(dict(self.given))
+
+    def __getattr__(self, name):
+        if name.startswith("_"):
+            raise AttributeError(name)
+        try:
+            return self.kwargs()[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
+def _read_options(tab, method):
+    """Values of ``method``'s registered options found in table ``tab``."""
+    known = [opt.name for opt in method.options]
+    for key in tab.data:
+        if key not in known:
+            hint = difflib.get_close_matches(key, known, n=1)
+            extra = f" (did you mean {hint[0]!r}?)" if hint else ""
+            tab.error(key, f"unknown option for method {method.name!r}{extra}; allowed: "
+                           f"{', '.join(known) or 'none'}")
+    return {opt.name: tab.get(opt.name, opt.check, opt.rule)
+            for opt in method.options if tab.has(opt.name)}
 
 
 def _parse_integrator(tab):
-    pos_int = (lambda v: _is_int(v) and v >= 1, "an integer >= 1")
-    steps = tab.get("steps", lambda v: _is_number(v) and v >= 2,
-                    "a number >= 2 (steps per half period of the linearised motion)", None)
-    rest_tol = tab.get("rest_tol", lambda v: _is_number(v) and v > 0, "a number > 0", 1e-8)
-    max_steps = tab.get("max_steps", *pos_int, None)
-    tab.finish()
-    return IntegratorSettings(steps=steps, rest_tol=float(rest_tol), max_steps=max_steps)
+    given = _read_options(tab, registry.METHODS["numeric"])
+    return IntegratorSettings(given=tuple(sorted(given.items())))
 
 
 def _parse_options(tab):
     options = {}
-    for method in list(tab.data):
-        if method not in METHODS:
-            tab.error(method, f"unknown method; expected one of {', '.join(METHODS)}")
-        sub = tab.table(method)
-        known = METHOD_OPTIONS.get(method, {})
-        opts = {}
-        for key in list(sub.data):
-            if key not in known:
-                allowed = ", ".join(known) or "none"
-                sub.error(key, f"unknown option for method {method!r}; allowed: {allowed}")
-            check, rule = known[key]
-            opts[key] = sub.get(key, check, rule)
-        sub.finish()
-        options[method] = opts
+    approximations = registry.approximations()
+    for name in list(tab.data):
+        if name not in approximations:
+            hint = " (the integrator's options go in [integrator])" if name == "numeric" else ""
+            tab.error(name, f"unknown method{hint}; expected one of {', '.join(approximations)}")
+        options[name] = _read_options(tab.table(name), registry.METHODS[name])
     tab.finish()
     return options
 

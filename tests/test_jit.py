@@ -1,0 +1,86 @@
+"""The kernel cache key: every package module a kernel imports, whatever the import form."""
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+import sweep
+from sweep.kernels import _jit
+
+ROOT = Path(sweep.__file__).resolve().parent
+
+
+@pytest.fixture()
+def pkg(tmp_path):
+    """A copy of the package, to edit."""
+    dst = tmp_path / "sweep"
+    shutil.copytree(ROOT, dst, ignore=shutil.ignore_patterns("__pycache__"))
+    return dst
+
+
+def _append(path, text):
+    path.write_text(path.read_text() + text)
+
+
+def test_kernel_sources_cover_the_kernels_and_what_they_import():
+    names = {p.relative_to(ROOT).as_posix() for p in _jit.kernel_sources()}
+    assert {"kernels/integrator.py", "kernels/contact.py", "kernels/approx.py",
+            "registry.py"} <= names
+    assert not any(n.startswith(("sweeps/", "store/", "reports/")) for n in names)
+    assert "cli.py" not in names and "api.py" not in names
+
+
+def test_editing_a_kernel_helper_changes_the_hash(pkg):
+    before = _jit.source_hash(pkg)
+    _append(pkg / "kernels" / "contact.py", "\n# an edit\n")
+    assert _jit.source_hash(pkg) != before
+
+
+def test_editing_the_cli_or_store_keeps_the_hash(pkg):
+    before = _jit.source_hash(pkg)
+    _append(pkg / "cli.py", "\n# an edit\n")
+    _append(pkg / "store" / "__init__.py", "\n# an edit\n")
+    assert _jit.source_hash(pkg) == before
+
+
+@pytest.mark.parametrize("form", [
+    "from sweep import helper_mod",
+    "import sweep.helper_mod",
+    "from sweep.helper_mod import VALUE",
+    "from .. import helper_mod",
+    "from ..helper_mod import VALUE",
+    "import sweep.helper_mod as hm",
+])
+def test_every_import_form_is_followed(pkg, form):
+    (pkg / "helper_mod.py").write_text("VALUE = 1\n")
+    _append(pkg / "kernels" / "stepper.py", f"\n{form}  # noqa\n")
+    assert pkg / "helper_mod.py" in _jit.kernel_sources(pkg)
+    before = _jit.source_hash(pkg)
+    (pkg / "helper_mod.py").write_text("VALUE = 2\n")
+    assert _jit.source_hash(pkg) != before
+
+
+def test_relative_import_inside_a_function_is_followed(pkg):
+    (pkg / "kernels" / "extra.py").write_text("X = 1\n")
+    (pkg / "helper_mod.py").write_text("Y = 1\n")
+    _append(pkg / "kernels" / "extra.py", textwrap.dedent("""
+        def f():
+            from ..helper_mod import Y
+            return Y
+    """))
+    assert pkg / "helper_mod.py" in _jit.kernel_sources(pkg)
+
+
+def test_cached_kernels_live_under_the_source_hash(tmp_path):
+    # A fresh process with its own cache directory compiles into <dir>/sweep-numba/<hash>.
+    code = ("import sweep, numpy as np; from sweep.kernels import _jit; "
+            "sweep.cor(1.5, 1.5, np.full(2, 0.1), 0.1, method='ord1'); print(_jit.cache_dir())")
+    env = {"NUMBA_CACHE_DIR": str(tmp_path), "PATH": "/usr/bin:/bin"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                         check=True).stdout.strip()
+    where = Path(out)
+    assert where == tmp_path / "sweep-numba" / _jit.source_hash()
+    assert any(where.rglob("*.nbi")), "no cache index written"

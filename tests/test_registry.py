@@ -1,0 +1,91 @@
+"""sweep.registry: one place for domains, methods and fields, read by every floor."""
+import contextlib
+
+import numpy as np
+import pytest
+
+import sweep
+from sweep import registry
+from sweep.kernels import approx
+from sweep.sweeps import config
+
+
+def _half(alpha, beta, gamma, gtilde, level=0.5):
+    """A dummy CoR: e = level where defined (what a new method's kernel returns)."""
+    e = np.full(alpha.size, float(level))
+    return e, np.zeros(alpha.size, dtype=np.int8)
+
+
+@contextlib.contextmanager
+def dummy_method(**kwargs):
+    m = registry.Method("dummy", "coefficient of restitution, dummy", "e = level",
+                        "(none)", _half, **kwargs)
+    registry.register_method(m)
+    try:
+        yield m
+    finally:
+        registry.unregister_method("dummy")
+
+
+def test_a_method_added_through_the_registry_alone():
+    opt = registry.Option("level", 0.5, lambda v: isinstance(v, float) and 0 <= v <= 1,
+                          "a number in [0, 1]")
+    with dummy_method(options=(opt,)):
+        assert sweep.cor(1.5, 1.5, 0.1, 0.2, method="dummy") == 0.5
+        np.testing.assert_array_equal(
+            sweep.cor(1.5, 1.5, np.array([0.1, 0.2]), 0.2, method="dummy", level=0.25),
+            [0.25, 0.25])
+        with pytest.raises(ValueError, match="level"):
+            sweep.cor(1.5, 1.5, 0.1, 0.2, method="dummy", level=2.0)
+        cfg = config.loads('[design]\nkind = "grid"\nalpha = 1.5\nbeta = 1.5\ngamma = 0.1\n'
+                           'gtilde = 0.2\n[outputs]\ne = ["numeric", "dummy"]\n'
+                           'fields = ["error_dummy"]\n[options.dummy]\nlevel = 0.75\n')
+        assert cfg.outputs.methods == ("numeric", "dummy")
+        assert cfg.outputs.approximations == ("dummy",)
+        assert cfg.method_options("dummy") == {"level": 0.75}
+    with pytest.raises(ValueError, match="dummy"):
+        sweep.cor(1.5, 1.5, 0.1, 0.2, method="dummy")
+
+
+def test_method_domain_is_applied_by_the_api():
+    with dummy_method(models=((1.0, 1.0),)):
+        e, status = sweep.cor_with_status(np.array([1.0, 1.5]), np.array([1.0, 1.5]), 0.1, 0.2,
+                                          method="dummy")
+        assert e[0] == 0.5 and np.isnan(e[1])
+        assert status.tolist() == [sweep.Status.OK, sweep.Status.INVALID]
+        with pytest.raises(ValueError, match="not defined"):
+            sweep.cor(1.5, 1.5, 0.1, 0.2, method="dummy")
+
+
+def test_every_registered_kernel_resolves():
+    for m in registry.METHODS.values():
+        assert callable(m.resolve()), m.name
+    assert set(approx.CODES) == set(registry.approximations())
+
+
+def test_kernel_domain_matches_the_registry():
+    # The jitted domain test (kernels) and the numpy one (registry) read one set of bounds.
+    rng = np.random.default_rng(0)
+    n = 2000
+    pts = [rng.choice([-1.0, 0.0, 0.5, 1.0, 1.5, np.nan, np.inf, -np.inf], n) for _ in range(4)]
+    e, status = sweep.cor_with_status(*pts, method="ord1")
+    valid = registry.valid_points(*pts)
+    np.testing.assert_array_equal(status != sweep.Status.INVALID, valid)
+    r = sweep.integrate(*pts, steps=8)
+    np.testing.assert_array_equal(r.status != sweep.Status.INVALID, valid)
+
+
+@pytest.mark.parametrize("name, bad", [("alpha", 0.99), ("beta", np.nan), ("gamma", -1e-300),
+                                       ("gtilde", -np.inf)])
+def test_check_names_the_value(name, bad):
+    with pytest.raises(ValueError, match=name):
+        registry.check_scalar(name, bad)
+
+
+def test_fields_and_integration_result_agree():
+    r = sweep.integrate(1.5, 1.5, 0.1, 0.1)
+    for name, f in registry.FIELDS.items():
+        value = getattr(r, name)
+        assert np.asarray(value).dtype.kind == f.dtype.kind or isinstance(value, (int, float,
+                                                                                  bool))
+    assert set(registry.integrator_fields()) == set(registry.FIELDS) - {"e"}
