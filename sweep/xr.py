@@ -1,0 +1,294 @@
+"""Labelled, Dask-aware front ends of :mod:`sweep.api` for xarray users.
+
+:func:`cor` and :func:`integrate` take scalars and :class:`xarray.DataArray` s (numpy- or
+dask-backed) with any dimension names, broadcast them *by dimension name* (xarray
+semantics, coordinates aligned with ``join="exact"``) and return labelled, attributed
+results; dask-backed inputs give dask-backed results that compute nothing until asked.
+Values are those of :func:`sweep.cor` / :func:`sweep.integrate` on plain arrays, bit for bit
+(the kernels give identical results for any chunking, thread or order).
+
+``import sweep.xr`` also registers the Dataset accessor ``ds.sweep`` (see
+:class:`SweepAccessor`): ``ds.sweep.cor(method)`` evaluates a method at the points of a sweep
+dataset and ``ds.sweep.error(method)`` its error field against ``ds.e_numeric``.
+``import sweep`` alone does not import xarray's accessor machinery nor this module.
+
+Floor: this module sits above :mod:`sweep.api` and imports only it, numpy and xarray (never
+the kernels, sweeps, store, reports or CLI).
+"""
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Callable
+
+import numpy as np
+import xarray as xr
+
+from sweep import api
+
+__all__ = ["cor", "integrate", "SweepAccessor", "PARAMETERS"]
+
+#: The four scaled parameters, in the order of :func:`sweep.cor`'s arguments.
+PARAMETERS = ("alpha", "beta", "gamma", "gtilde")
+
+# Long name and the report's equation of each method. These describe results; the values
+# come from sweep.api. (To be read from the method registry once there is one.)
+_METHODS = {
+    "numeric": ("coefficient of restitution, numerical integration",
+                "e = -v(T_f), report eq. (3), from the Runge-Kutta integration of the (u, w) "
+                "system, eq. (4), through the three phases of Algorithm 1; 0 if the bead "
+                "sticks or comes to rest"),
+    "ord1": ("coefficient of restitution, first-order approximation",
+             "e = max(1 - gamma C0 - gamma g~ C1, 0), report eq. (22)"),
+    "sp": ("coefficient of restitution, Schwager-Poeschel second order",
+           "e = 1 - gamma C0 - gamma g~ C1 - gamma^2 C2, report eqs. (25) and (30); "
+           "alpha = beta = 3/2 only (NaN elsewhere)"),
+    "large_gtilde": ("coefficient of restitution, large-load approximation",
+                     "e = sqrt(max(1 - 2 gamma C g~^r, 0)), report eq. (23)"),
+    "ord2_numint": ("coefficient of restitution, second order with quadrature I, Q",
+                    "e = min(sqrt(max(e^2, 0)), e_s), report Prop. 2, eqs. (36)-(38), "
+                    "I(g~) and Q(g~) by quadrature"),
+    "ord2_approx": ("coefficient of restitution, second order with approximated I, Q",
+                    "e = min(sqrt(max(e^2, 0)), e_s), report Prop. 2, eqs. (36)-(38), "
+                    "I(g~) and Q(g~) by the approximation of Sec. 4.4, eqs. (43)-(49)"),
+}
+
+# Long names of the IntegrationResult fields; a field missing here still gets its name.
+_FIELD_NAMES = {
+    "e": "coefficient of restitution, numerical integration",
+    "sticks": "bead does not rebound",
+    "t_f": "impact duration T_f (units of T, report eq. (2))",
+    "u_max": "maximum compression u_M (units of delta = v0 T, report eq. (2))",
+    "n_steps": "number of integration steps",
+    "status": "integration status",
+}
+
+_INTEGRATOR = "fixed-step Dormand-Prince 5(4), three phases of Algorithm 1"
+
+
+# --------------------------------------------------------------------------- helpers
+
+def _labelled(name: str, value: Any) -> xr.DataArray:
+    """A DataArray for one parameter; scalars become 0-d (no dimension to name)."""
+    if isinstance(value, xr.DataArray):
+        return value
+    if np.ndim(value) == 0:
+        return xr.DataArray(np.asarray(value, dtype=np.float64))
+    # A bare array has no dimension names to broadcast by; guessing them would be wrong.
+    raise TypeError(
+        f"{name} must be a scalar or an xarray.DataArray, got {type(value).__name__} of "
+        f"shape {np.shape(value)}: wrap it in xarray.DataArray(..., dims=...), or use "
+        "sweep.cor / sweep.integrate for numpy broadcasting")
+
+
+def _probe(method: str, options: dict) -> Any:
+    """Evaluate on zero points: checks method and options now rather than at compute time
+    (for dask inputs), and gives the output dtypes. Integrates nothing; the first call in a
+    process loads (or compiles) the kernels, which computing would do anyway."""
+    z = np.empty(0)
+    if method == "numeric":
+        return api.integrate(z, z, z, z, **options)
+    return api.cor(z, z, z, z, method=method, **options)
+
+
+def _settings(method: str, options: dict) -> dict:
+    """Attributes recording the settings the values were computed with (defaults resolved)."""
+    if method != "numeric":
+        return {f"option_{k}": v for k, v in options.items()}
+    steps, max_steps = options.get("steps"), options.get("max_steps")
+    # ``parallel`` is left out on purpose: results do not depend on it.
+    return {
+        "integrator": _INTEGRATOR,
+        "integrator_steps": float(api.DEFAULT_STEPS if steps is None else steps),
+        "integrator_rest_tol": float(options.get("rest_tol", api.DEFAULT_REST_TOL)),
+        "integrator_max_steps": int(api.DEFAULT_MAX_STEPS if max_steps is None
+                                    else max_steps),
+    }
+
+
+def _method_attrs(method: str, options: dict) -> dict:
+    long_name, equation = _METHODS.get(method, (f"coefficient of restitution, {method}",
+                                                "see sweep.cor"))
+    return {"long_name": long_name, "units": "1", "method": method, "equation": equation,
+            **_settings(method, options)}
+
+
+def _apply(block: Callable, args: tuple, kwargs: dict, dtypes: list) -> Any:
+    """``xr.apply_ufunc`` of a block function over the four parameters, elementwise."""
+    arrays = [_labelled(n, a) for n, a in zip(PARAMETERS, args)]
+    return xr.apply_ufunc(
+        block, *arrays, kwargs=kwargs, output_core_dims=[()] * len(dtypes),
+        dask="parallelized", output_dtypes=dtypes, vectorize=False)
+
+
+# Block functions: module level so that distributed schedulers can pickle them. They get
+# numpy blocks already broadcast-compatible (xarray inserted size-1 axes by name), which
+# sweep.api broadcasts with numpy rules. A block of 0-d arrays (all inputs scalars) is a
+# scalar call of sweep.api and raises on invalid values, as sweep.cor does.
+
+def _cor_block(alpha, beta, gamma, gtilde, method, options):
+    e = api.cor(alpha, beta, gamma, gtilde, method=method, **options)
+    return np.asarray(e, dtype=np.float64)
+
+
+def _integrate_block(alpha, beta, gamma, gtilde, options, dtypes):
+    r = api.integrate(alpha, beta, gamma, gtilde, **options)
+    return tuple(np.asarray(getattr(r, name), dtype=dt) for name, dt in dtypes.items())
+
+
+# --------------------------------------------------------------------------- public
+
+def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
+        **options: Any) -> xr.DataArray:
+    """Coefficient of restitution ``e`` [1] of labelled inputs, broadcast by dimension name.
+
+    Parameters
+    ----------
+    alpha, beta : float or xarray.DataArray
+        Stiffness and damping exponents [1], >= 1.
+    gamma : float or xarray.DataArray
+        Scaled damping [1], >= 0, report eq. (2).
+    gtilde : float or xarray.DataArray
+        Scaled load g~ [1], >= 0, report eq. (2).
+    method : str, default "numeric"
+        One of :data:`sweep.METHODS` (see :func:`sweep.cor`).
+    **options
+        Passed to :func:`sweep.cor` (``steps``, ``rest_tol``, ``max_steps``, ``parallel`` for
+        ``"numeric"``; ``n`` for ``"ord2_approx"``); checked at call time.
+
+    Returns
+    -------
+    xarray.DataArray
+        Named ``e_<method>``, float64, dimensions the union of the inputs' in order of first
+        appearance, dask-backed (lazy) if any input is. NaN at invalid points inside arrays;
+        all-scalar inputs give a 0-d result and raise ``ValueError`` on invalid values, like
+        :func:`sweep.cor`. Attributes: ``units``, ``long_name``, ``method``, ``equation``
+        and the settings used (``integrator_*`` or ``option_*``).
+    """
+    if method not in api.METHODS:
+        raise ValueError(f"method must be one of {api.METHODS}, got {method!r}")
+    _probe(method, options)
+    out = _apply(_cor_block, (alpha, beta, gamma, gtilde),
+                 {"method": method, "options": options}, [np.float64])
+    out.name = f"e_{method}"
+    out.attrs = _method_attrs(method, options)
+    return out
+
+
+def _field_attrs(name: str) -> dict:
+    attrs = {"long_name": _FIELD_NAMES.get(name, name)}
+    if name == "status":  # CF flags: values and meanings from sweep's Status
+        attrs["flag_values"] = np.array([s.value for s in api.Status], dtype=np.int8)
+        attrs["flag_meanings"] = " ".join(s.name.lower() for s in api.Status)
+    elif name != "sticks":  # flags carry no units (CF)
+        attrs["units"] = "1"
+    return attrs
+
+
+def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any,
+              **options: Any) -> xr.Dataset:
+    """Numerical integration of labelled inputs (:func:`sweep.integrate`) as a Dataset.
+
+    Parameters
+    ----------
+    alpha, beta, gamma, gtilde : float or xarray.DataArray
+        Scaled parameters [1] (see :func:`cor`), broadcast by dimension name.
+    **options
+        ``steps``, ``rest_tol``, ``max_steps``, ``parallel`` of :func:`sweep.integrate`;
+        checked at call time.
+
+    Returns
+    -------
+    xarray.Dataset
+        One variable per field of :class:`sweep.IntegrationResult` (``e``, ``sticks``,
+        ``t_f``, ``u_max``, ``n_steps``, ``status``), with their dtypes, ``long_name`` and
+        ``units`` (``flag_values`` / ``flag_meanings`` for ``status``); dask-backed (lazy,
+        one integration per block) if any input is. Global attributes: ``method``
+        ("numeric"), ``equation`` and the integrator settings used.
+    """
+    probe = _probe("numeric", options)
+    # Names and dtypes come from the function itself, so a new field needs no edit here.
+    dtypes = {f.name: np.asarray(getattr(probe, f.name)).dtype
+              for f in dataclasses.fields(api.IntegrationResult)}
+    outs = _apply(_integrate_block, (alpha, beta, gamma, gtilde),
+                  {"options": options, "dtypes": dtypes}, list(dtypes.values()))
+    outs = outs if isinstance(outs, tuple) else (outs,)
+    for name, out in zip(dtypes, outs):
+        out.attrs = _field_attrs(name)  # replace, not merge: keep_attrs may have copied some
+    ds = xr.Dataset(dict(zip(dtypes, outs)))
+    attrs = _method_attrs("numeric", options)
+    ds.attrs = {k: v for k, v in attrs.items() if k not in ("long_name", "units")}
+    return ds
+
+
+# --------------------------------------------------------------------------- accessor
+
+@xr.register_dataset_accessor("sweep")
+class SweepAccessor:
+    """``ds.sweep``: CoR methods at the points of a sweep dataset (registered by
+    ``import sweep.xr``).
+
+    A sweep dataset holds the four parameters ``alpha, beta, gamma, gtilde`` as coordinates
+    (grid designs: one dimension each; designs of experiments: coordinates along ``point``)
+    or variables, as written by ``sweep run``. On a dask-chunked dataset the results are
+    lazy and chunked like it.
+
+    Examples
+    --------
+    >>> ds = xarray.open_dataset("default.nc", chunks={"gamma": 100})  # doctest: +SKIP
+    >>> ds.sweep.error("ord2_approx").max().compute()                  # doctest: +SKIP
+    """
+
+    def __init__(self, ds: xr.Dataset) -> None:
+        self._ds = ds
+
+    def parameters(self) -> tuple[xr.DataArray, ...]:
+        """The four parameters as DataArrays, dask-chunked like the dataset if it is."""
+        ds = self._ds
+        missing = [p for p in PARAMETERS if p not in ds.variables]
+        if missing:
+            raise KeyError(f"not a sweep dataset: no {', '.join(missing)} (a sweep dataset "
+                           f"has {', '.join(PARAMETERS)} as coordinates or variables)")
+        chunks = ds.chunksizes
+        out = []
+        for name in PARAMETERS:
+            p = ds[name]
+            if chunks:
+                # Index coordinates refuse to be chunked: chunk a plain copy of the values,
+                # so that a lazy dataset gives a lazy result.
+                p = xr.DataArray(p.variable.to_base_variable(), coords=p.coords, name=name)
+                p = p.chunk({d: chunks[d] for d in p.dims if d in chunks})
+            out.append(p)
+        return tuple(out)
+
+    def cor(self, method: str = "numeric", **options: Any) -> xr.DataArray:
+        """:func:`sweep.xr.cor` at the dataset's points (float64 [1], named ``e_<method>``)."""
+        return cor(*self.parameters(), method=method, **options)
+
+    def error(self, method: str, reference: str = "e_numeric",
+              **options: Any) -> xr.DataArray:
+        """Error field ``e_<method> - reference`` [1] of a method, named ``error_<method>``.
+
+        Parameters
+        ----------
+        method : str
+            One of :data:`sweep.METHODS`.
+        reference : str, default "e_numeric"
+            Variable of the dataset to compare against.
+        **options
+            Passed to :func:`sweep.xr.cor` (e.g. ``n`` for ``"ord2_approx"``).
+
+        Returns
+        -------
+        xarray.DataArray
+            With the reference's dimension order; lazy if the dataset is chunked.
+        """
+        if reference not in self._ds:
+            raise KeyError(f"no variable {reference!r} to compare against; the dataset "
+                           f"has {sorted(self._ds.data_vars)}")
+        ref = self._ds[reference]
+        e = self.cor(method, **options)
+        err = (e - ref).transpose(*ref.dims, ...)
+        err.name = f"error_{method}"
+        err.attrs = {**e.attrs, "long_name": f"error of the {e.attrs['long_name']}",
+                     "description": f"{e.name} - {reference}", "reference": reference}
+        return err
