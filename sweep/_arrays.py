@@ -32,6 +32,13 @@ class Broadcast:
     """
 
     def __init__(self, names: Sequence[str], arrays: Sequence[Any]):
+        for name, a in zip(names, arrays):
+            if getattr(a, "dims", ()) and hasattr(a, "coords"):
+                # numpy rules would pair labelled axes by position, not by name: refuse
+                # rather than answer for the wrong pairs.
+                raise TypeError(f"{name} is a labelled array (dims {tuple(a.dims)}); use "
+                                "sweep.xr.cor / sweep.xr.integrate, which broadcast by "
+                                "dimension name")
         arrays = [np.asarray(a, dtype=np.float64) for a in arrays]
         self.scalar = all(a.ndim == 0 for a in arrays)
         bcast = np.broadcast_arrays(*arrays)

@@ -12,8 +12,8 @@ Values are those of :func:`sweep.cor` / :func:`sweep.integrate` on plain arrays,
 dataset and ``ds.sweep.error(method)`` its error field against ``ds.e_numeric``.
 ``import sweep`` alone does not import xarray's accessor machinery nor this module.
 
-Floor: this module sits above :mod:`sweep.api` and imports only it, numpy and xarray (never
-the kernels, sweeps, store, reports or CLI).
+Owns: the labelled front ends. May import: :mod:`sweep.api`, :mod:`sweep.registry` (method
+and field metadata), numpy, xarray (never the kernels, sweeps, store, reports or CLI).
 """
 from __future__ import annotations
 
@@ -23,46 +23,12 @@ from typing import Any, Callable
 import numpy as np
 import xarray as xr
 
-from sweep import api
+from sweep import api, registry
 
 __all__ = ["cor", "integrate", "SweepAccessor", "PARAMETERS"]
 
 #: The four scaled parameters, in the order of :func:`sweep.cor`'s arguments.
-PARAMETERS = ("alpha", "beta", "gamma", "gtilde")
-
-# Long name and the report's equation of each method. These describe results; the values
-# come from sweep.api. (To be read from the method registry once there is one.)
-_METHODS = {
-    "numeric": ("coefficient of restitution, numerical integration",
-                "e = -v(T_f), report eq. (3), from the Runge-Kutta integration of the (u, w) "
-                "system, eq. (4), through the three phases of Algorithm 1; 0 if the bead "
-                "sticks or comes to rest"),
-    "ord1": ("coefficient of restitution, first-order approximation",
-             "e = max(1 - gamma C0 - gamma g~ C1, 0), report eq. (22)"),
-    "sp": ("coefficient of restitution, Schwager-Poeschel second order",
-           "e = 1 - gamma C0 - gamma g~ C1 - gamma^2 C2, report eqs. (25) and (30); "
-           "alpha = beta = 3/2 only (NaN elsewhere)"),
-    "large_gtilde": ("coefficient of restitution, large-load approximation",
-                     "e = sqrt(max(1 - 2 gamma C g~^r, 0)), report eq. (23)"),
-    "ord2_numint": ("coefficient of restitution, second order with quadrature I, Q",
-                    "e = min(sqrt(max(e^2, 0)), e_s), report Prop. 2, eqs. (36)-(38), "
-                    "I(g~) and Q(g~) by quadrature"),
-    "ord2_approx": ("coefficient of restitution, second order with approximated I, Q",
-                    "e = min(sqrt(max(e^2, 0)), e_s), report Prop. 2, eqs. (36)-(38), "
-                    "I(g~) and Q(g~) by the approximation of Sec. 4.4, eqs. (43)-(49)"),
-}
-
-# Long names of the IntegrationResult fields; a field missing here still gets its name.
-_FIELD_NAMES = {
-    "e": "coefficient of restitution, numerical integration",
-    "sticks": "bead does not rebound",
-    "t_f": "impact duration T_f (units of T, report eq. (2))",
-    "u_max": "maximum compression u_M (units of delta = v0 T, report eq. (2))",
-    "n_steps": "number of integration steps",
-    "status": "integration status",
-}
-
-_INTEGRATOR = "fixed-step Dormand-Prince 5(4), three phases of Algorithm 1"
+PARAMETERS = registry.PARAMETER_NAMES
 
 
 # --------------------------------------------------------------------------- helpers
@@ -90,26 +56,15 @@ def _probe(method: str, options: dict) -> Any:
     return api.cor(z, z, z, z, method=method, **options)
 
 
-def _settings(method: str, options: dict) -> dict:
-    """Attributes recording the settings the values were computed with (defaults resolved)."""
-    if method != "numeric":
-        return {f"option_{k}": v for k, v in options.items()}
-    steps, max_steps = options.get("steps"), options.get("max_steps")
-    # ``parallel`` is left out on purpose: results do not depend on it.
-    return {
-        "integrator": _INTEGRATOR,
-        "integrator_steps": float(api.DEFAULT_STEPS if steps is None else steps),
-        "integrator_rest_tol": float(options.get("rest_tol", api.DEFAULT_REST_TOL)),
-        "integrator_max_steps": int(api.DEFAULT_MAX_STEPS if max_steps is None
-                                    else max_steps),
-    }
-
-
 def _method_attrs(method: str, options: dict) -> dict:
-    long_name, equation = _METHODS.get(method, (f"coefficient of restitution, {method}",
-                                                "see sweep.cor"))
-    return {"long_name": long_name, "units": "1", "method": method, "equation": equation,
-            **_settings(method, options)}
+    """Attributes of a method's result: its registry metadata and the settings used
+    (defaults resolved; ``parallel`` left out on purpose: results do not depend on it)."""
+    m = registry.method(method)
+    used = m.check_options({k: v for k, v in options.items() if k != "parallel"})
+    prefix = "integrator_" if m.integrates else "option_"
+    return {"long_name": m.long_name, "units": "1", "method": method,
+            "equation": m.equation, "description": m.description,
+            **{prefix + k: v for k, v in used.items()}}
 
 
 def _apply(block: Callable, args: tuple, kwargs: dict, dtypes: list) -> Any:
@@ -164,8 +119,7 @@ def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
         :func:`sweep.cor`. Attributes: ``units``, ``long_name``, ``method``, ``equation``
         and the settings used (``integrator_*`` or ``option_*``).
     """
-    if method not in api.METHODS:
-        raise ValueError(f"method must be one of {api.METHODS}, got {method!r}")
+    registry.method(method)
     _probe(method, options)
     out = _apply(_cor_block, (alpha, beta, gamma, gtilde),
                  {"method": method, "options": options}, [np.float64])
@@ -175,12 +129,13 @@ def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
 
 
 def _field_attrs(name: str) -> dict:
-    attrs = {"long_name": _FIELD_NAMES.get(name, name)}
-    if name == "status":  # CF flags: values and meanings from sweep's Status
-        attrs["flag_values"] = np.array([s.value for s in api.Status], dtype=np.int8)
-        attrs["flag_meanings"] = " ".join(s.name.lower() for s in api.Status)
-    elif name != "sticks":  # flags carry no units (CF)
-        attrs["units"] = "1"
+    f = registry.FIELDS[name]
+    attrs = {"long_name": f.long_name, "description": f.description}
+    if f.flags:  # CF flags carry no units
+        attrs["flag_values"] = np.array(list(f.flags.values()), dtype=f.dtype)
+        attrs["flag_meanings"] = " ".join(f.flags)
+    elif f.dtype != np.bool_:
+        attrs["units"] = f.units
     return attrs
 
 
