@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+import sweep
 from sweep.critical import RTOL
 from sweep.reports.common import (format_value, log_progress, machine_description,
                                   machine_line, use_agg, write_table)
@@ -104,8 +105,6 @@ def compute_sweeps(models: Sequence[str] | None = None, n_gamma: int = 1000,
         ``(model, g~) -> {"gamma", "end", "numeric", "numint", "approx", "status"}``
         (arrays over the grid).
     """
-    import sweep
-
     models = list(models or PAPER_MODELS)
     out = {}
     for key in models:
@@ -384,8 +383,7 @@ def _figure_files(out, models, crit, sweeps):
 
 
 def _report_markdown(rows, crit_md, n_gamma, steps, machine, elapsed):
-    import sweep
-
+    """paper_report.md: the tables next to the report's, the g~_c summary, the machine."""
     head = [
         "## The report's Tables 2-5 recomputed",
         "",

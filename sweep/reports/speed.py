@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+import sweep
 from sweep.reports.common import (format_value, log_progress, machine_description,
                                   machine_line, use_agg, write_table)
 from sweep.reports.paper_values import PAPER_MODELS
@@ -202,8 +203,6 @@ class _Bench:
 
 def _reference(a, b, gamma, gtilde, ref_steps, progress):
     """The integrator at ``ref_steps`` (undecided points NaN) and its self-check."""
-    import sweep
-
     log_progress(progress, f"reference: integrator at steps = {ref_steps:g} on "
                            f"{gamma.size} points")
     t_ref, _, r_ref = _best_time(lambda: sweep.integrate(a, b, gamma, gtilde, steps=ref_steps),
@@ -240,8 +239,6 @@ def _crosscheck(bench, chk, crosscheck, crosscheck_name, progress):
 
 def _integrator_rows(bench, steps_list, repeat, nthreads, progress):
     """Time the integrator at every resolution (best of ``repeat``, all threads)."""
-    import sweep
-
     a, b, gamma, gtilde = bench.a, bench.b, bench.gamma, bench.gtilde
     # Round robin over the resolutions, best of ``repeat``: a burst of load from other
     # processes then spoils one sample of each resolution rather than all of one.
@@ -266,12 +263,10 @@ def _integrator_rows(bench, steps_list, repeat, nthreads, progress):
 
 def _approximation_rows(bench, repeat, nthreads, progress):
     """Time every approximation defined for the bench's model (best of ``repeat``)."""
-    import sweep
-    from sweep.api import APPROXIMATIONS
 
     a, b, gamma, gtilde = bench.a, bench.b, bench.gamma, bench.gtilde
     rows = []
-    for m in APPROXIMATIONS:
+    for m in sweep.APPROXIMATIONS:
         if m == "sp" and not (a == 1.5 and b == 1.5):
             continue
         sweep.cor(a, b, gamma, gtilde, method=m)      # compile (serial and parallel kernels)
@@ -346,8 +341,6 @@ def _notes(machine, bench, model, seed, reference, repeat, nthreads):
 
 def _write_tables(out, rows, headline, notes):
     """Write speed.csv, speed_headline.csv and speed.md; return the markdown."""
-    import sweep
-
     cols = ["kind", "method", "setting", "points", "threads", "points_per_second",
             "seconds_per_point", "cpu_seconds_per_point", "max_abs_error", "median_abs_error",
             "p99_abs_error", "subset_max_abs_error", "subset_median_abs_error"]
@@ -415,8 +408,6 @@ def speed_report(out: str | os.PathLike = "speed_report", *, n_points: int = 200
         ``out``, ``files``, ``rows``, ``headline``, ``reference``, ``machine``,
         ``markdown``.
     """
-    import sweep
-
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     a, b = PAPER_MODELS[model][:2]
