@@ -342,7 +342,7 @@ class _WriteBehind:
     main thread at the next :meth:`write` or at :meth:`drain`.
     """
 
-    def __init__(self, writer, depth=2):
+    def __init__(self, writer: store.Writer, depth: int = 2) -> None:
         self._writer = writer
         self._depth = depth
         self._pending = collections.deque()
