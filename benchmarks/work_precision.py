@@ -4,7 +4,9 @@ The same measurement as ``sweep report speed`` (see :mod:`sweep.reports.speed`),
 knob exposed: on one common point set, the integrator at several resolutions, each of the
 report's approximations, and scipy's ``solve_ivp`` (RK45, DOP853 with events, one point at
 a time) on a subset; the reference is the integrator at high resolution, cross-checked with
-the test suite's DOP853 reference (tests/reference.py) on a subset.
+the test suite's DOP853 reference (tests/reference.py: grazing refinement, energy identity)
+on a subset. The package itself never loads the tests: this script hands that reference to
+``speed_report`` as its ``crosscheck`` (``sweep report speed`` uses a plain DOP853 instead).
 
     python benchmarks/work_precision.py [--out DIR] [--n 20000] [--n-scipy 100]
         [--n-check 100] [--model kk] [--ref-steps 1024] [--steps 12 16 24 ...]
@@ -15,9 +17,23 @@ prints the markdown tables.
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 
 from sweep.reports.paper_values import PAPER_MODELS
 from sweep.reports.speed import STEPS_LIST, speed_report
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
+
+#: Label of the cross-check in the tables and the plot.
+TEST_REFERENCE = "tests/reference.py dop853_cor (DOP853 rtol 1e-13, atol 1e-15)"
+
+
+def tests_reference_cor(alpha, beta, gamma, gtilde):
+    """e from the test suite's slow DOP853 reference (needs mpmath, a test dependency)."""
+    from reference import dop853_cor  # noqa: PLC0415 -- the tests' slow reference
+
+    return dop853_cor(alpha, beta, gamma, gtilde).e
 
 
 def main(argv=None):
@@ -35,7 +51,9 @@ def main(argv=None):
     args = p.parse_args(argv)
     res = speed_report(args.out, n_points=args.n, steps_list=args.steps,
                        ref_steps=args.ref_steps, n_check=args.n_check, n_scipy=args.n_scipy,
-                       model=args.model, seed=args.seed, repeat=args.repeat, progress=True)
+                       model=args.model, seed=args.seed, repeat=args.repeat,
+                       crosscheck=tests_reference_cor, crosscheck_name=TEST_REFERENCE,
+                       progress=True)
     print(res["markdown"])
     for f in res["files"]:
         print(f)

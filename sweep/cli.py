@@ -1,13 +1,21 @@
-"""Command line: ``sweep run | info | validate``.
+"""Command line: ``sweep run | info | validate | report``.
 
 ::
 
     sweep run CONFIG [-o OUT.nc] [--resume | --restart] [--quiet] [--scheduler ADDR]
     sweep info OUT.nc
     sweep validate CONFIG
+    sweep report accuracy DATASET.nc [--out DIR]
+    sweep report paper [--out DIR] [--n-gamma N] [--n-crit N] [--steps S] [--models ...]
+    sweep report speed [--out DIR] [--n-points N] [--n-scipy N] [--n-check N] [--model M]
 
-Exit status: 0 success, 1 invalid configuration or refused resume, 130 interrupted
-(the finished chunks are kept; rerun the same command to resume).
+Exit status: 0 success, 1 invalid configuration, refused resume or unreadable dataset, 130
+interrupted (the finished chunks are kept; rerun the same command to resume).
+
+This module owns every subcommand and all of argparse: each subparser sets ``func``, the
+handler that runs it and returns the exit status. Floor 6 (the top): it may import any
+module of the package; the work modules are imported inside the handlers so that ``sweep
+--help`` and argument errors stay fast.
 """
 from __future__ import annotations
 
@@ -15,16 +23,12 @@ import argparse
 import signal
 import sys
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "add_report_commands"]
 
 
-def build_parser():
-    parser = argparse.ArgumentParser(
-        prog="sweep",
-        description="Parameter sweeps of the coefficient of restitution of a bead on a "
-                    "nonlinear visco-elastic contact (Chatterjee, James, Brogliato 2021).")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+# --------------------------------------------------------------------------- run, info, validate
 
+def _add_run_command(sub):
     p = sub.add_parser("run", help="run a sweep configuration and write a netCDF dataset",
                        description="Run the sweep described by CONFIG. An interrupted run "
                                    "resumes from its finished chunks when the same command "
@@ -45,18 +49,18 @@ def build_parser():
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="Dask scheduler address (tcp://host:port): run the chunks on that "
                         "cluster instead of locally")
+    p.set_defaults(func=_cmd_run)
 
+
+def _add_info_and_validate_commands(sub):
     p = sub.add_parser("info", help="describe an output dataset",
                        description="Print the dimensions, variables with summary "
                                    "statistics, and settings of a sweep output.")
     p.add_argument("path", metavar="OUT.nc")
-
+    p.set_defaults(func=_cmd_info)
     p = sub.add_parser("validate", help="check a configuration without running it")
     p.add_argument("config", metavar="CONFIG")
-
-    from sweep.reports import add_report_commands  # noqa: PLC0415 -- plotting stays lazy
-    add_report_commands(sub)
-    return parser
+    p.set_defaults(func=_cmd_validate)
 
 
 def _cmd_validate(args):
@@ -92,20 +96,175 @@ def _cmd_run(args):
     return 0
 
 
+# --------------------------------------------------------------------------- report
+
+def _print_files(res, heading):
+    print(heading)
+    for f in res["files"]:
+        print(f"  {f}")
+    return 0
+
+
+def _cmd_accuracy(args):
+    from sweep.reports.accuracy import accuracy_report
+
+    try:
+        res = accuracy_report(args.dataset, args.out)
+    except (OSError, ValueError) as exc:
+        print(f"sweep report accuracy: error: {args.dataset}: {exc}", file=sys.stderr)
+        return 1
+    return _print_files(res, f"accuracy report of {args.dataset}: {len(res['files'])} "
+                             f"files in {res['out']}")
+
+
+def _cmd_paper(args):
+    from sweep.reports.paper import paper_report
+
+    res = paper_report(args.out, n_gamma=args.n_gamma, n_crit=args.n_crit, steps=args.steps,
+                       models=args.models, progress=not args.quiet)
+    print(res["markdown"])
+    return _print_files(res, f"files in {res['out']}:")
+
+
+def _cmd_speed(args):
+    from sweep.reports.speed import speed_report
+
+    res = speed_report(args.out, n_points=args.n_points, n_scipy=args.n_scipy,
+                       n_check=args.n_check, model=args.model, seed=args.seed,
+                       progress=not args.quiet)
+    print(res["markdown"])
+    return _print_files(res, f"files in {res['out']}:")
+
+
+def _add_accuracy_command(sub):
+    p = sub.add_parser(
+        "accuracy", help="error maps of the approximations stored in a dataset",
+        description="For each approximation in DATASET: a heat map of |e_method - "
+                    "e_numeric| over (gamma, g~), one panel per (alpha, beta), with the "
+                    "numerical stick/rebound boundary and the report's boundary (24); and a "
+                    "table of max and median abs error per region.")
+    p.add_argument("dataset", metavar="DATASET.nc", help="output of `sweep run`")
+    p.add_argument("--out", metavar="DIR",
+                   help="output directory (default: DATASET's name + '_accuracy')")
+    p.set_defaults(func=_cmd_accuracy)
+
+
+def _add_paper_command(sub, models):
+    p = sub.add_parser(
+        "paper", help="the report's Tables 2-5 and Figures 8-11, next to its numbers",
+        description="Recompute the report's Tables 2-5 (max abs error of the O(gamma^2) "
+                    "approximation with numerical and approximated I, Q) on the report's "
+                    "gamma grids, print them next to the published values, and redraw "
+                    "Figures 8-11 (g~_c against gamma, bisection on the numerical e versus "
+                    "eq. (24)).")
+    p.add_argument("--out", metavar="DIR", default="paper_report",
+                   help="output directory (default: ./paper_report)")
+    p.add_argument("--n-gamma", type=int, default=1000, metavar="N",
+                   help="gamma grid points per (model, g~) (default 1000, as the report)")
+    p.add_argument("--n-crit", type=int, default=100, metavar="N",
+                   help="gamma values of Figures 8-11 (default 100, as the report)")
+    p.add_argument("--steps", type=float, default=None,
+                   help="integrator resolution (default: the package default)")
+    p.add_argument("--models", nargs="+", choices=models, default=None,
+                   help="subset of models (default: all four)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
+    p.set_defaults(func=_cmd_paper)
+
+
+def _add_speed_command(sub, models):
+    p = sub.add_parser(
+        "speed", help="work-precision: speed against error, scipy as the peer",
+        description="Time the integrator at several resolutions, every approximation and "
+                    "scipy's solve_ivp (RK45, DOP853, one point at a time) on one common "
+                    "point set; plot time per point against max abs error.")
+    p.add_argument("--out", metavar="DIR", default="speed_report",
+                   help="output directory (default: ./speed_report)")
+    p.add_argument("--n-points", type=int, default=20000, metavar="N",
+                   help="common point set size (default 20000)")
+    p.add_argument("--n-scipy", type=int, default=100, metavar="N",
+                   help="points of the subset given to scipy (default 100)")
+    p.add_argument("--n-check", type=int, default=100, metavar="N",
+                   help="points on which the reference is cross-checked with DOP853")
+    p.add_argument("--model", choices=models, default="kk",
+                   help="contact model of the point set (default kk)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
+    p.set_defaults(func=_cmd_speed)
+
+
+def add_report_commands(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Add ``report {accuracy, paper, speed}`` to an argparse sub-parsers object.
+
+    Each leaf parser gets ``func`` as a default: ``args.func(args)`` runs the report and
+    returns the exit status.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``ArgumentParser.add_subparsers()`` returned.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``report`` parser.
+    """
+    from sweep.reports.paper_values import PAPER_MODELS  # pure data, no plotting
+
+    rep = subparsers.add_parser(
+        "report", help="accuracy maps, the report's tables and figures, speed against error",
+        description="Reports built from a sweep dataset, from the report's own test cases, "
+                    "or from a timing run. Figures are PNG, tables CSV and markdown.")
+    sub = rep.add_subparsers(dest="report", required=True, metavar="REPORT")
+    _add_accuracy_command(sub)
+    _add_paper_command(sub, list(PAPER_MODELS))
+    _add_speed_command(sub, list(PAPER_MODELS))
+    return rep
+
+
+# --------------------------------------------------------------------------- entry point
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``sweep`` argument parser, every subcommand included.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        Parsed arguments carry ``func``, the handler of the chosen subcommand.
+    """
+    parser = argparse.ArgumentParser(
+        prog="sweep",
+        description="Parameter sweeps of the coefficient of restitution of a bead on a "
+                    "nonlinear visco-elastic contact (Chatterjee, James, Brogliato 2021).")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _add_run_command(sub)
+    _add_info_and_validate_commands(sub)
+    add_report_commands(sub)
+    return parser
+
+
 def _terminate(signum, frame):
     # SIGTERM (e.g. a batch system's time limit) unwinds like Ctrl-C: finished chunks are
     # already saved, and the half-assembled file is closed.
     raise KeyboardInterrupt
 
 
-def main(argv=None):
-    """Entry point of the ``sweep`` console script; returns the exit status."""
-    args = build_parser().parse_args(argv)
-    from sweep.sweeps.config import ConfigError
-    from sweep.store import ResumeError
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``sweep`` console script.
 
-    handlers = {"run": _cmd_run, "info": _cmd_info, "validate": _cmd_validate,
-                "report": lambda a: a.func(a)}
+    Parameters
+    ----------
+    argv : list of str, optional
+        Arguments (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
+    args = build_parser().parse_args(argv)
+    from sweep.store import ResumeError
+    from sweep.sweeps.config import ConfigError
+
     previous = None
     if args.command == "run":
         try:
@@ -113,7 +272,7 @@ def main(argv=None):
         except ValueError:  # not the main thread (embedded use): leave signals alone
             previous = None
     try:
-        return handlers[args.command](args)
+        return args.func(args)
     except (ConfigError, ResumeError) as exc:
         print(f"sweep {args.command}: error: {exc}", file=sys.stderr)
         return 1

@@ -18,12 +18,12 @@ import xarray as xr
 from scipy.special import beta as beta_fn
 
 import sweep
+from sweep import cli, reports
 from sweep.reports import paper_values as pv
-from sweep import reports
 from sweep.reports.accuracy import REGIONS, accuracy_report, load_errors
 from sweep.reports.paper import (compute_sweeps, gamma_c_24, paper_gamma_grid, paper_report,
                                  table_rows)
-from sweep.reports.speed import scipy_user_cor, speed_report, time_at_error
+from sweep.reports.speed import PLAIN_DOP853, scipy_user_cor, speed_report, time_at_error
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -350,6 +350,7 @@ def test_speed_report_small(tmp_path):
         assert r["points_per_second"] == pytest.approx(1 / r["seconds_per_point"])
         assert r["cpu_seconds_per_point"] > 0
     assert res["reference"]["crosscheck_max_diff"] < 1e-6
+    assert res["reference"]["crosscheck"] == PLAIN_DOP853     # the package's own peer
     assert len(res["headline"]) == 4
     assert all(h["ratio"] > 0 and h["ratio_cpu"] > 0 for h in res["headline"])
     md = (out / "speed.md").read_text()
@@ -361,11 +362,11 @@ def test_speed_report_small(tmp_path):
 def test_add_report_commands(grid_dataset, tmp_path):
     parser = argparse.ArgumentParser(prog="sweep")
     sub = parser.add_subparsers(dest="command", required=True)
-    reports.add_report_commands(sub)
+    cli.add_report_commands(sub)
     args = parser.parse_args(["report", "paper"])
-    assert args.func is reports._cmd_paper and args.n_gamma == 1000 and args.models is None
+    assert args.func is cli._cmd_paper and args.n_gamma == 1000 and args.models is None
     args = parser.parse_args(["report", "speed", "--n-points", "50", "--model", "shc"])
-    assert args.func is reports._cmd_speed and args.n_points == 50 and args.model == "shc"
+    assert args.func is cli._cmd_speed and args.n_points == 50 and args.model == "shc"
     with pytest.raises(SystemExit):
         parser.parse_args(["report", "paper", "--models", "nonsense"])
     args = parser.parse_args(["report", "accuracy", str(grid_dataset[0]), "--out",

@@ -38,15 +38,23 @@ median absolute error in these regions:
 
 Points whose numerical computation ran out of budget or was invalid are excluded from every
 region and counted in the ``excluded`` column.
+
+May import: numpy, xarray (lazily), :mod:`sweep.model`, :mod:`sweep.critical`,
+:mod:`sweep.api` and :mod:`sweep.reports.common`; matplotlib lazily,
+after :func:`sweep.reports.common.use_agg` has set its backend.
 """
 from __future__ import annotations
 
+import os
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sweep.model import Status
-from sweep.reports import use_agg, write_table
+from sweep.reports.common import use_agg, write_table
 
 __all__ = ["accuracy_report", "load_errors", "model_groups", "region_masks", "region_table",
            "REGIONS", "critical_gtilde_24", "MAX_MODELS"]
@@ -57,7 +65,7 @@ REGIONS = ("all", "rebound", "stick", "rebound, gamma <= 0.01, g~ <= g~_c/2",
 _PARAMS = ("alpha", "beta", "gamma", "gtilde")
 
 
-def critical_gtilde_24(alpha, beta, gamma):
+def critical_gtilde_24(alpha: ArrayLike, beta: ArrayLike, gamma: ArrayLike) -> np.ndarray:
     """The report's no-rebound threshold (24), ``g~_c = (1/(2 gamma C))^(1/r)`` [1]
     (``inf`` at gamma = 0): :func:`sweep.critical.critical_gtilde` with method "approx"."""
     from sweep.critical import critical_gtilde
@@ -75,7 +83,7 @@ def _flat(ds, name, like):
     return np.asarray(a.transpose(*like.dims).values).reshape(-1)
 
 
-def load_errors(ds):
+def load_errors(ds: Any) -> dict[str, Any]:
     """Flat per-point arrays of a sweep dataset (grid or scattered).
 
     Returns
@@ -135,7 +143,7 @@ def load_errors(ds):
 MAX_MODELS = 6
 
 
-def model_groups(data):
+def model_groups(data: Mapping[str, Any]) -> list[dict[str, Any]]:
     """The panels / table groups of a dataset: one per contact model, or per exponent bin.
 
     Returns
@@ -170,7 +178,7 @@ def model_groups(data):
     return groups
 
 
-def region_masks(data, group_mask):
+def region_masks(data: Mapping[str, Any], group_mask: np.ndarray) -> dict[str, np.ndarray]:
     """Boolean masks of :data:`REGIONS` for the points of one group.
 
     The boundary (24) is evaluated at each point's own (alpha, beta).
@@ -192,7 +200,8 @@ def region_masks(data, group_mask):
     }
 
 
-def region_table(data, groups=None):
+def region_table(data: Mapping[str, Any],
+                 groups: list[dict[str, Any]] | None = None) -> list[dict[str, Any]]:
     """Rows (dicts) of max / median abs error per method, model (or bin) and region."""
     rows = []
     groups = model_groups(data) if groups is None else groups
@@ -240,56 +249,51 @@ def _nanmax(v):
     return v.max() if v.size else np.nan
 
 
-def _panel(ax, data, err, grp, norm, cmap):
-    """Draw one group's map; returns the mappable (or None if nothing to draw)."""
-    sel = grp["mask"] & (data["gamma"] > 0) & (data["gtilde"] > 0)
-    g, G = data["gamma"][sel], data["gtilde"][sel]
-    z = err[sel].copy()
-    sticks = data["sticks"][sel]
-    a, b = grp["a_rep"], grp["b_rep"]
-    z = np.where(z == 0.0, norm.vmin * 1e-3, z)      # exact zeros: the "under" colour
-    if g.size == 0:
-        ax.text(0.5, 0.5, "no point with gamma > 0 and g~ > 0", ha="center",
-                transform=ax.transAxes)
-        return None
+def _grid_map(ax, g, G, z, sticks, exact, norm, cmap):
+    """A full grid over (gamma, g~): cells, and the 0.5 contour of ``sticks``."""
     gu, Gu = np.unique(g), np.unique(G)
-    grid = gu.size * Gu.size == g.size
-    if grid:                                          # a full grid over (gamma, g~)
-        i = np.searchsorted(gu, g)
-        j = np.searchsorted(Gu, G)
-        Z = np.full((Gu.size, gu.size), np.nan)
-        Z[j, i] = z
-        S = np.zeros((Gu.size, gu.size))
-        S[j, i] = sticks
-        mappable = ax.pcolormesh(_edges(gu), _edges(Gu), np.ma.masked_invalid(Z), norm=norm,
-                                 cmap=cmap, shading="flat")
-        if grp["exact"] and gu.size > 1 and Gu.size > 1 and 0 < S.sum() < S.size:
-            ax.contour(gu, Gu, S, levels=[0.5], colors="k", linewidths=1.2)
-        xlim = (_edges(gu)[0], _edges(gu)[-1])
-        ylim = (_edges(Gu)[0], _edges(Gu)[-1])
-    else:
-        if g.size > HEXBIN_ABOVE:
-            mappable = ax.hexbin(g, G, C=z, xscale="log", yscale="log", gridsize=(70, 45),
-                                 reduce_C_function=_nanmax, norm=norm, cmap=cmap,
-                                 linewidths=0.0)
-        else:
-            mappable = ax.scatter(g, G, c=z, norm=norm, cmap=cmap, s=8, edgecolors="none",
-                                  plotnonfinite=True)
-        if grp["exact"] and g.size >= 3 and 0 < sticks.sum() < sticks.size:
-            try:
-                import matplotlib.tri as mtri
+    i = np.searchsorted(gu, g)
+    j = np.searchsorted(Gu, G)
+    Z = np.full((Gu.size, gu.size), np.nan)
+    Z[j, i] = z
+    S = np.zeros((Gu.size, gu.size))
+    S[j, i] = sticks
+    mappable = ax.pcolormesh(_edges(gu), _edges(Gu), np.ma.masked_invalid(Z), norm=norm,
+                             cmap=cmap, shading="flat")
+    if exact and gu.size > 1 and Gu.size > 1 and 0 < S.sum() < S.size:
+        ax.contour(gu, Gu, S, levels=[0.5], colors="k", linewidths=1.2)
+    return mappable, (_edges(gu)[0], _edges(gu)[-1]), (_edges(Gu)[0], _edges(Gu)[-1])
 
-                # Delaunay in log coordinates (where the points are spread evenly), drawn
-                # with the same triangles in data coordinates on the log axes.
-                tri = mtri.Triangulation(np.log10(g), np.log10(G))
-                flat = mtri.TriAnalyzer(tri).get_flat_tri_mask(min_circle_ratio=0.05)
-                tri = mtri.Triangulation(g, G, triangles=tri.triangles, mask=flat)
-                ax.tricontour(tri, sticks.astype(float), levels=[0.5], colors="k",
-                              linewidths=1.2)
-            except Exception:  # pragma: no cover - degenerate triangulations
-                pass
-        xlim = (g.min(), g.max())
-        ylim = (G.min(), G.max())
+
+def _scattered_map(ax, g, G, z, sticks, exact, norm, cmap):
+    """Scattered points: hexagonal bins (largest error) or dots, and the triangulated
+    0.5 contour of ``sticks``."""
+    if g.size > HEXBIN_ABOVE:
+        mappable = ax.hexbin(g, G, C=z, xscale="log", yscale="log", gridsize=(70, 45),
+                             reduce_C_function=_nanmax, norm=norm, cmap=cmap,
+                             linewidths=0.0)
+    else:
+        mappable = ax.scatter(g, G, c=z, norm=norm, cmap=cmap, s=8, edgecolors="none",
+                              plotnonfinite=True)
+    if exact and g.size >= 3 and 0 < sticks.sum() < sticks.size:
+        try:
+            import matplotlib.tri as mtri
+
+            # Delaunay in log coordinates (where the points are spread evenly), drawn
+            # with the same triangles in data coordinates on the log axes.
+            tri = mtri.Triangulation(np.log10(g), np.log10(G))
+            flat = mtri.TriAnalyzer(tri).get_flat_tri_mask(min_circle_ratio=0.05)
+            tri = mtri.Triangulation(g, G, triangles=tri.triangles, mask=flat)
+            ax.tricontour(tri, sticks.astype(float), levels=[0.5], colors="k",
+                          linewidths=1.2)
+        except Exception:  # pragma: no cover - degenerate triangulations
+            pass
+    return mappable, (g.min(), g.max()), (G.min(), G.max())
+
+
+def _boundaries_and_labels(ax, grp, xlim, ylim):
+    """Log axes, the boundary (24) and, for exponent bins, the numerical one; labels."""
+    a, b = grp["a_rep"], grp["b_rep"]
     ax.set_xscale("log")
     ax.set_yscale("log")
     gg = np.geomspace(*xlim, 200)
@@ -310,6 +314,23 @@ def _panel(ax, data, err, grp, norm, cmap):
     else:
         ax.set_title(f"alpha in {grp['alpha']}, beta in {grp['beta']}\n(curves at the "
                      f"medians alpha = {a:.3g}, beta = {b:.3g})", fontsize=9)
+
+
+def _panel(ax, data, err, grp, norm, cmap):
+    """Draw one group's map; returns the mappable (or None if nothing to draw)."""
+    sel = grp["mask"] & (data["gamma"] > 0) & (data["gtilde"] > 0)
+    g, G = data["gamma"][sel], data["gtilde"][sel]
+    z = err[sel].copy()
+    sticks = data["sticks"][sel]
+    z = np.where(z == 0.0, norm.vmin * 1e-3, z)      # exact zeros: the "under" colour
+    if g.size == 0:
+        ax.text(0.5, 0.5, "no point with gamma > 0 and g~ > 0", ha="center",
+                transform=ax.transAxes)
+        return None
+    grid = np.unique(g).size * np.unique(G).size == g.size
+    draw = _grid_map if grid else _scattered_map
+    mappable, xlim, ylim = draw(ax, g, G, z, sticks, grp["exact"], norm, cmap)
+    _boundaries_and_labels(ax, grp, xlim, ylim)
     return mappable
 
 
@@ -353,7 +374,8 @@ def _plot_method(path, data, m, groups, title):
     plt.close(fig)
 
 
-def accuracy_report(path, out=None, *, methods=None):
+def accuracy_report(path: str | os.PathLike, out: str | os.PathLike | None = None, *,
+                    methods: Sequence[str] | None = None) -> dict[str, Any]:
     """Write the accuracy maps and the per-region error table of a sweep dataset.
 
     Parameters

@@ -25,20 +25,29 @@ Figures 8-11
 g~_c against gamma: the smallest g~ at which the bead no longer rebounds, by bisection on the
 numerical outcome (:func:`sweep.critical.critical_gtilde`, method "numeric"), against the
 report's (24); and the relative error ``|g~_c,num - g~_c,(24)| / g~_c,num`` for gamma <= 0.3.
+
+May import: numpy, :mod:`sweep.critical`, the public ``sweep`` names,
+:mod:`sweep.reports.common` and :mod:`sweep.reports.paper_values`; matplotlib lazily,
+after :func:`sweep.reports.common.use_agg` has set its backend.
 """
 from __future__ import annotations
 
-import sys
+import os
 import time
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from sweep.reports.paper_values import (FIGURES_CRITICAL, GAMMA_MAX, GRID_END_FACTOR, GTILDES,
-                                PAPER_MODELS, TABLE_A, TABLE_B, TABLE_B_EDGES,
-                                TRANSCRIPTION_NOTES, WINDOW_FRACTIONS)
+import sweep
 from sweep.critical import RTOL
-from sweep.reports import format_value, machine_description, machine_line, use_agg, write_table
+from sweep.reports.common import (format_value, log_progress, machine_description,
+                                  machine_line, use_agg, write_table)
+from sweep.reports.paper_values import (FIGURES_CRITICAL, GAMMA_MAX, GRID_END_FACTOR,
+                                        GTILDES, PAPER_MODELS, TABLE_A, TABLE_B,
+                                        TABLE_B_EDGES, TRANSCRIPTION_NOTES, WINDOW_FRACTIONS)
 
 __all__ = ["paper_report", "gamma_c_24", "paper_gamma_grid", "window_masks", "WINDOWS",
            "compute_sweeps", "table_rows", "critical_curves",
@@ -50,14 +59,15 @@ COEFFICIENTS = {"numint": "ord2_numint", "approx": "ord2_approx"}
 WINDOWS = ("low", "mid", "high", "ge")
 
 
-def gamma_c_24(alpha, beta, gtilde):
+def gamma_c_24(alpha: float, beta: float, gtilde: ArrayLike) -> np.ndarray:
     """The report's no-rebound threshold (24) in gamma: ``1 / (2 C g~^r)`` (inf at g~ = 0)."""
     from sweep.critical import critical_gamma
 
     return critical_gamma(alpha, beta, gtilde, method="approx")
 
 
-def paper_gamma_grid(alpha, beta, gtilde, n_gamma=1000, shift=False):
+def paper_gamma_grid(alpha: float, beta: float, gtilde: float, n_gamma: int = 1000,
+                     shift: bool = False) -> tuple[np.ndarray, float]:
     """The report's gamma grid at one (model, g~): ``linspace(0, G, n_gamma)`` and ``G``.
 
     ``shift=True`` moves every point up by half a step (same windows, other samples).
@@ -69,7 +79,7 @@ def paper_gamma_grid(alpha, beta, gtilde, n_gamma=1000, shift=False):
     return gamma, end
 
 
-def window_masks(gamma, end):
+def window_masks(gamma: np.ndarray, end: float) -> dict[str, np.ndarray]:
     """Masks of the report's windows on a gamma grid ending (nominally) at ``end``."""
     lo, hi = WINDOW_FRACTIONS[0] * end, WINDOW_FRACTIONS[1] * end
     low = gamma < lo
@@ -84,12 +94,9 @@ def _window_label(w, end):
             "high": f"gamma > {hi:.3g}", "ge": f"gamma >= {lo:.3g}"}[w]
 
 
-def _log(progress, msg):
-    if progress:
-        print(msg, file=sys.stderr, flush=True)
-
-
-def compute_sweeps(models=None, n_gamma=1000, steps=None, shift=False, progress=False):
+def compute_sweeps(models: Sequence[str] | None = None, n_gamma: int = 1000,
+                   steps: float | None = None, shift: bool = False,
+                   progress: bool = False) -> dict[tuple[str, float], dict[str, Any]]:
     """The numerical CoR and both O(gamma^2) approximations on the report's grids.
 
     Returns
@@ -98,8 +105,6 @@ def compute_sweeps(models=None, n_gamma=1000, steps=None, shift=False, progress=
         ``(model, g~) -> {"gamma", "end", "numeric", "numint", "approx", "status"}``
         (arrays over the grid).
     """
-    import sweep
-
     models = list(models or PAPER_MODELS)
     out = {}
     for key in models:
@@ -112,7 +117,7 @@ def compute_sweeps(models=None, n_gamma=1000, steps=None, shift=False, progress=
             for c, m in COEFFICIENTS.items():
                 d[c] = sweep.cor(a, b, gamma, G, method=m)
             out[(key, G)] = d
-            _log(progress, f"  {key} g~={G:g}: {n_gamma} gamma in [0, {end:.4g}] "
+            log_progress(progress, f"  {key} g~={G:g}: {n_gamma} gamma in [0, {end:.4g}] "
                            f"({time.perf_counter() - t0:.2f} s)")
     return out
 
@@ -125,7 +130,9 @@ def _report_value(key, G, coeff, w):
     return {"low": triple[0], "mid": triple[1], "high": triple[2]}.get(w)
 
 
-def table_rows(sweeps, shifted=None):
+def table_rows(sweeps: Mapping[tuple[str, float], Mapping[str, Any]],
+               shifted: Mapping[tuple[str, float], Mapping[str, Any]] | None = None
+               ) -> list[dict[str, Any]]:
     """Rows of the recomputed tables (one per model, g~, coefficients, window).
 
     Parameters
@@ -212,7 +219,9 @@ def _markdown_tables(rows):
 
 # --------------------------------------------------------------------------- Figures 8-11
 
-def critical_curves(models=None, n_crit=100, steps=None, progress=False):
+def critical_curves(models: Sequence[str] | None = None, n_crit: int = 100,
+                    steps: float | None = None,
+                    progress: bool = False) -> dict[str, dict[str, np.ndarray]]:
     """g~_c(gamma) numerically and by (24) on the report's gamma sets of Figures 8-11.
 
     The numerical g~_c is :func:`sweep.critical.critical_gtilde` with method "numeric":
@@ -241,7 +250,7 @@ def critical_curves(models=None, n_crit=100, steps=None, progress=False):
             d.update({f"gamma{tag}": g, f"numeric{tag}": num, f"approx{tag}": app,
                       f"relerr{tag}": rel})
         out[key] = d
-        _log(progress, f"  {key}: g~_c at {2 * n_crit} gamma values "
+        log_progress(progress, f"  {key}: g~_c at {2 * n_crit} gamma values "
                        f"({time.perf_counter() - t0:.1f} s)")
     return out
 
@@ -310,8 +319,90 @@ def _error_figure(path, key, sweeps):
     plt.close(fig)
 
 
-def paper_report(out="paper_report", n_gamma=1000, *, n_crit=None, steps=None, models=None,
-                 figures=True, progress=False):
+def _table_files(out, rows, sweeps):
+    """Write the recomputed tables (CSV) and the raw sweeps (npz); return their paths."""
+    cols = ["table", "part", "model", "alpha", "beta", "gtilde", "coefficients", "window",
+            "gamma_range", "n_points", "max_abs_error", "report", "ratio", "max_shifted",
+            "gamma_at_max", "e_numeric_at_max"]
+    write_table(rows, cols, out / "paper_tables.csv")
+    np.savez_compressed(out / "paper_sweeps.npz", **{
+        f"{k}_g{G:g}_{v}": d[v] for (k, G), d in sweeps.items()
+        for v in ("gamma", "numeric", "numint", "approx", "status")})
+    return [out / "paper_tables.csv", out / "paper_sweeps.npz"]
+
+
+def _critical_rows(crit):
+    """Min and max relative error of (24) per model and gamma band."""
+    crit_rows = []
+    for key, d in crit.items():
+        for lo, hi, tag in ((0.0, 0.01, "_zoom"), (0.01, 0.1, ""), (0.1, 0.3, ""),
+                            (0.3, 1.0, "")):
+            g = d[f"gamma{tag}"]
+            sel = (g > lo) & (g <= hi)
+            rel = d[f"relerr{tag}"][sel]
+            crit_rows.append({"figure": PAPER_MODELS[key][4], "model": key,
+                              "gamma_range": f"({lo:g}, {hi:g}]", "n_gamma": int(sel.sum()),
+                              "max_rel_error": float(np.nanmax(rel)) if rel.size else None,
+                              "min_rel_error": float(np.nanmin(rel)) if rel.size else None})
+    return crit_rows
+
+
+def _critical_table(out, crit, crit_rows, n_crit):
+    """Write the g~_c curves (CSV); return the markdown summary of Figures 8-11."""
+    write_table([{"model": k, "gamma": g, "gtilde_c_numeric": n, "gtilde_c_24": a,
+                  "rel_error": r}
+                 for k, d in crit.items()
+                 for tag in ("", "_zoom")
+                 for g, n, a, r in zip(d[f"gamma{tag}"], d[f"numeric{tag}"],
+                                       d[f"approx{tag}"], d[f"relerr{tag}"])],
+                ["model", "gamma", "gtilde_c_numeric", "gtilde_c_24", "rel_error"],
+                out / "paper_critical.csv")
+    return write_table(
+        crit_rows, ["figure", "model", "gamma_range", "n_gamma", "min_rel_error",
+                    "max_rel_error"],
+        title="Figures 8-11: relative error of g~_c from (24) against bisection on the "
+              "numerical CoR",
+        notes=[f"gamma = linspace({FIGURES_CRITICAL['gamma_min']:g}, 1, {n_crit}) and, for "
+               f"(0, 0.01], linspace({FIGURES_CRITICAL['gamma_min']:g}, 0.01, {n_crit}), as "
+               f"in the report; bisection (sweep.critical) to a relative width "
+               f"{RTOL:g} on the integrator's stick decision (the report: e < 1e-4 counted "
+               "as 0, absolute width 1e-3)."])
+
+
+def _figure_files(out, models, crit, sweeps):
+    """Draw Figures 8-11 and the error-against-gamma figures; return their paths."""
+    files = []
+    for key in models:
+        f = out / f"paper_{PAPER_MODELS[key][4].replace(' ', '').lower()}_{key}.png"
+        _critical_figure(f, key, crit[key])
+        files.append(f)
+        f = out / f"paper_errors_{key}.png"
+        _error_figure(f, key, sweeps)
+        files.append(f)
+    return files
+
+
+def _report_markdown(rows, crit_md, n_gamma, steps, machine, elapsed):
+    """paper_report.md: the tables next to the report's, the g~_c summary, the machine."""
+    head = [
+        "## The report's Tables 2-5 recomputed",
+        "",
+        "Maximum absolute error of the O(gamma^2) approximation (36)-(38) against sweep's "
+        f"numerical CoR (steps = {steps or sweep.DEFAULT_STEPS:g}), with I, Q by quadrature "
+        "('num.'; exact (39), (40) at g~ = 0) and by the Chebyshev-Beta approximation "
+        "(48), (49), n = 21 ('approx.'). Grid: "
+        f"{n_gamma} gamma values on [0, min(0.1, 1.1 gamma_c(24))] per (model, g~), the "
+        "report's; 'shifted grid' = the same maxima with every gamma moved by half a step.",
+        "",
+    ]
+    return "\n".join(head) + _markdown_tables(rows) + "\n" + crit_md + (
+        f"\nMachine: {machine_line(machine)}. Report computed in {elapsed:.0f} s.\n")
+
+
+def paper_report(out: str | os.PathLike = "paper_report", n_gamma: int = 1000, *,
+                 n_crit: int | None = None, steps: float | None = None,
+                 models: Sequence[str] | None = None, figures: bool = True,
+                 progress: bool = False) -> dict[str, Any]:
     """Recompute the report's Tables 2-5 and Figures 8-11 and write them into ``out``.
 
     Parameters
@@ -328,12 +419,19 @@ def paper_report(out="paper_report", n_gamma=1000, *, n_crit=None, steps=None, m
         Keys of :data:`sweep.reports.paper_values.PAPER_MODELS` (default: all four).
     figures : bool
         Write the PNG figures (tables only if False).
+    progress : bool
+        Print progress messages to stderr.
 
     Returns
     -------
     dict
         ``out``, ``files``, ``rows`` (table rows, see :func:`table_rows`), ``critical``
         (see :func:`critical_curves`), ``crit_rows``, ``markdown``, ``sweeps``.
+
+    Raises
+    ------
+    ValueError
+        If ``n_gamma < 2``.
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -343,80 +441,20 @@ def paper_report(out="paper_report", n_gamma=1000, *, n_crit=None, steps=None, m
         raise ValueError(f"n_gamma must be >= 2, got {n_gamma}")
     machine = machine_description()
     t0 = time.perf_counter()
-    _log(progress, "Tables 2-5: the report's gamma grids")
+    log_progress(progress, "Tables 2-5: the report's gamma grids")
     sweeps = compute_sweeps(models, n_gamma, steps, progress=progress)
-    _log(progress, "Tables 2-5: the same grids shifted by half a step")
+    log_progress(progress, "Tables 2-5: the same grids shifted by half a step")
     shifted = compute_sweeps(models, n_gamma, steps, shift=True, progress=progress)
     rows = table_rows(sweeps, shifted)
-    files = []
-    cols = ["table", "part", "model", "alpha", "beta", "gtilde", "coefficients", "window",
-            "gamma_range", "n_points", "max_abs_error", "report", "ratio", "max_shifted",
-            "gamma_at_max", "e_numeric_at_max"]
-    write_table(rows, cols, out / "paper_tables.csv")
-    files.append(out / "paper_tables.csv")
-    np.savez_compressed(out / "paper_sweeps.npz", **{
-        f"{k}_g{G:g}_{v}": d[v] for (k, G), d in sweeps.items()
-        for v in ("gamma", "numeric", "numint", "approx", "status")})
-    files.append(out / "paper_sweeps.npz")
-
-    _log(progress, "Figures 8-11: g~_c by bisection")
+    files = _table_files(out, rows, sweeps)
+    log_progress(progress, "Figures 8-11: g~_c by bisection")
     crit = critical_curves(models, n_crit, steps, progress=progress)
-    crit_rows = []
-    for key, d in crit.items():
-        for lo, hi, tag in ((0.0, 0.01, "_zoom"), (0.01, 0.1, ""), (0.1, 0.3, ""),
-                            (0.3, 1.0, "")):
-            g = d[f"gamma{tag}"]
-            sel = (g > lo) & (g <= hi)
-            rel = d[f"relerr{tag}"][sel]
-            crit_rows.append({"figure": PAPER_MODELS[key][4], "model": key,
-                              "gamma_range": f"({lo:g}, {hi:g}]", "n_gamma": int(sel.sum()),
-                              "max_rel_error": float(np.nanmax(rel)) if rel.size else None,
-                              "min_rel_error": float(np.nanmin(rel)) if rel.size else None})
-    write_table([{"model": k, "gamma": g, "gtilde_c_numeric": n, "gtilde_c_24": a,
-                  "rel_error": r}
-                 for k, d in crit.items()
-                 for tag in ("", "_zoom")
-                 for g, n, a, r in zip(d[f"gamma{tag}"], d[f"numeric{tag}"],
-                                       d[f"approx{tag}"], d[f"relerr{tag}"])],
-                ["model", "gamma", "gtilde_c_numeric", "gtilde_c_24", "rel_error"],
-                out / "paper_critical.csv")
+    crit_rows = _critical_rows(crit)
+    crit_md = _critical_table(out, crit, crit_rows, n_crit)
     files.append(out / "paper_critical.csv")
-    crit_md = write_table(
-        crit_rows, ["figure", "model", "gamma_range", "n_gamma", "min_rel_error",
-                    "max_rel_error"],
-        title="Figures 8-11: relative error of g~_c from (24) against bisection on the "
-              "numerical CoR",
-        notes=[f"gamma = linspace({FIGURES_CRITICAL['gamma_min']:g}, 1, {n_crit}) and, for "
-               f"(0, 0.01], linspace({FIGURES_CRITICAL['gamma_min']:g}, 0.01, {n_crit}), as "
-               f"in the report; bisection (sweep.critical) to a relative width "
-               f"{RTOL:g} on the integrator's stick decision (the report: e < 1e-4 counted "
-               "as 0, absolute width 1e-3)."])
-
     if figures:
-        for key in models:
-            f = out / f"paper_{PAPER_MODELS[key][4].replace(' ', '').lower()}_{key}.png"
-            _critical_figure(f, key, crit[key])
-            files.append(f)
-            f = out / f"paper_errors_{key}.png"
-            _error_figure(f, key, sweeps)
-            files.append(f)
-
-    import sweep
-
-    elapsed = time.perf_counter() - t0
-    head = [
-        "## The report's Tables 2-5 recomputed",
-        "",
-        "Maximum absolute error of the O(gamma^2) approximation (36)-(38) against sweep's "
-        f"numerical CoR (steps = {steps or sweep.DEFAULT_STEPS:g}), with I, Q by quadrature "
-        "('num.'; exact (39), (40) at g~ = 0) and by the Chebyshev-Beta approximation "
-        "(48), (49), n = 21 ('approx.'). Grid: "
-        f"{n_gamma} gamma values on [0, min(0.1, 1.1 gamma_c(24))] per (model, g~), the "
-        "report's; 'shifted grid' = the same maxima with every gamma moved by half a step.",
-        "",
-    ]
-    md = "\n".join(head) + _markdown_tables(rows) + "\n" + crit_md + (
-        f"\nMachine: {machine_line(machine)}. Report computed in {elapsed:.0f} s.\n")
+        files += _figure_files(out, models, crit, sweeps)
+    md = _report_markdown(rows, crit_md, n_gamma, steps, machine, time.perf_counter() - t0)
     (out / "paper_report.md").write_text(md, encoding="utf-8")
     files.insert(0, out / "paper_report.md")
     return {"out": out, "files": files, "rows": rows, "critical": crit,

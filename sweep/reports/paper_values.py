@@ -25,6 +25,8 @@ edge; the report merges the last two windows into "gamma >= 0.02"), and for g~ =
 gives the printed edges below to the printed digits (KK: G = 1.1 * 0.0016664 = 0.001833,
 0.2 G = 0.000367, 0.92 G = 0.00169). This is also what the authors' published MATLAB
 scripts do (report ref. [38], ``PaperResults/AnalVarCoeffCompare.m``).
+
+Pure data: imports nothing (the command line reads :data:`PAPER_MODELS` for its choices).
 """
 from __future__ import annotations
 

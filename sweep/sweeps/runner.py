@@ -21,6 +21,15 @@ Two executors:
 
 Every chunk's values depend only on its points, and point ``i`` of a design never depends on
 the chunking, so results are identical for any chunk size, thread count or executor.
+
+:func:`run` is a driver that reads as its steps: prepare (load the configuration, build
+the design and the :class:`ComputePlan`), check an existing output, plan the chunks, open
+the partial state, stream the chunks (resumed ones copied, the others computed), finish
+(write the timing attributes, commit atomically) and report.
+
+Floor 4: may import :mod:`sweep.api`, :mod:`sweep.store`, :mod:`sweep.sweeps.config`,
+:mod:`sweep.sweeps.design` and :mod:`sweep._version` (and, lazily, tqdm and Dask); nothing
+of the reports or the command line.
 """
 from __future__ import annotations
 
@@ -34,15 +43,16 @@ import platform
 import sys
 import time
 import uuid
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from sweep import api
+from sweep import api, store
+from sweep._version import __version__
 from sweep.sweeps import config as _config
 from sweep.sweeps import design as _design
-from sweep import store
-from sweep._version import __version__
 
 __all__ = ["ComputePlan", "compute_chunk", "run", "RunResult", "default_output",
            "source_sha256"]
@@ -76,7 +86,8 @@ class ComputePlan:
     variables: tuple
 
     @classmethod
-    def from_config(cls, cfg):
+    def from_config(cls, cfg: _config.Config) -> ComputePlan:
+        """The plan of a validated configuration (its outputs, integrator and options)."""
         out = cfg.outputs
         return cls(integrate=out.needs_integration, integrator=cfg.integrator.kwargs(),
                    approximations=out.approximations,
@@ -84,7 +95,8 @@ class ComputePlan:
                    variables=out.variables)
 
 
-def compute_chunk(plan, alpha, beta, gamma, gtilde):
+def compute_chunk(plan: ComputePlan, alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
+                  gtilde: np.ndarray) -> tuple[dict[str, np.ndarray], float]:
     """Compute the requested outputs at a chunk of points.
 
     Parameters
@@ -142,6 +154,10 @@ class RunResult:
         Time spent in the api kernels during this call [s].
     up_to_date : bool
         The output already existed with the same configuration: nothing was done.
+    chunks : int
+        Number of chunks of the design (set once the output is written).
+    resumed_chunks : int
+        Chunks copied from saved partial results instead of computed.
     """
 
     output: Path
@@ -154,19 +170,30 @@ class RunResult:
     resumed_chunks: int = 0
 
     @property
-    def points_per_second(self):
+    def points_per_second(self) -> float:
+        """Points computed by this call per second of its wall time (NaN if no time)."""
         return self.computed_points / self.wall_seconds if self.wall_seconds > 0 else float("nan")
 
     @property
-    def outside_fraction(self):
+    def outside_fraction(self) -> float:
         """Fraction of the wall time spent outside the kernels (design, saving, writing)."""
         if self.wall_seconds <= 0:
             return float("nan")
         return 1.0 - self.kernel_seconds / self.wall_seconds
 
 
-def default_output(cfg):
-    """``<config file stem>.nc`` in the current directory."""
+def default_output(cfg: _config.Config) -> Path:
+    """``<config file stem>.nc`` in the current directory.
+
+    Parameters
+    ----------
+    cfg : Config
+
+    Returns
+    -------
+    Path
+        ``sweep.nc`` for a configuration without a source file.
+    """
     stem = Path(cfg.source).stem if cfg.source else "sweep"
     return Path(stem + ".nc")
 
@@ -178,12 +205,17 @@ def _version(dist):
         return "unknown"
 
 
-def source_sha256():
+def source_sha256() -> str:
     """Hash of the package's Python sources.
 
     Two runs of one configuration give identical results only with identical code; the
     version number alone does not see a local edit. Resuming, and reusing an existing
     output, therefore also require the same source hash.
+
+    Returns
+    -------
+    str
+        Hex SHA-256 over the relative path and bytes of every ``sweep/**/*.py``.
     """
     package = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
@@ -198,6 +230,19 @@ def _layout(design):
         return store.Layout(dims=design.dims, shape=design.shape, axes=design.axes)
     return store.Layout(dims=design.dims, shape=design.shape, axes={},
                         point_coords=_config.PARAMETERS)
+
+
+def _integrator_attrs(plan):
+    if not plan.integrate:
+        return {"integrator": "not run (no requested output needs the numerical integration)"}
+    s = plan.integrator
+    return {
+        "integrator": "fixed-step Dormand-Prince 5(4), three phases of Algorithm 1",
+        "integrator_steps": float(api.DEFAULT_STEPS if s["steps"] is None else s["steps"]),
+        "integrator_rest_tol": float(s["rest_tol"]),
+        "integrator_max_steps": int(api.DEFAULT_MAX_STEPS if s["max_steps"] is None
+                                    else s["max_steps"]),
+    }
 
 
 def _static_attrs(cfg, design, plan, chunk_size):
@@ -225,17 +270,7 @@ def _static_attrs(cfg, design, plan, chunk_size):
         "chunk_size": chunk_size,
         "outputs": " ".join(plan.variables),
     }
-    if plan.integrate:
-        s = plan.integrator
-        attrs.update({
-            "integrator": "fixed-step Dormand-Prince 5(4), three phases of Algorithm 1",
-            "integrator_steps": float(api.DEFAULT_STEPS if s["steps"] is None else s["steps"]),
-            "integrator_rest_tol": float(s["rest_tol"]),
-            "integrator_max_steps": int(api.DEFAULT_MAX_STEPS if s["max_steps"] is None
-                                        else s["max_steps"]),
-        })
-    else:
-        attrs["integrator"] = "not run (no requested output needs the numerical integration)"
+    attrs.update(_integrator_attrs(plan))
     for method, opts in plan.options.items():
         for key, value in opts.items():
             attrs[f"options_{method}_{key}"] = value
@@ -307,7 +342,7 @@ class _WriteBehind:
     main thread at the next :meth:`write` or at :meth:`drain`.
     """
 
-    def __init__(self, writer, depth=2):
+    def __init__(self, writer: store.Writer, depth: int = 2) -> None:
         self._writer = writer
         self._depth = depth
         self._pending = collections.deque()
@@ -334,8 +369,203 @@ class _WriteBehind:
         self._pending.clear()
 
 
-def run(cfg, output=None, *, restart=False, quiet=False, chunk_size=None, scheduler=None,
-        log=None):
+# --------------------------------------------------------------------------- the driver's steps
+
+@dataclasses.dataclass
+class _Job:
+    """What the steps of one :func:`run` call share."""
+
+    cfg: _config.Config
+    design: Any
+    plan: ComputePlan
+    layout: store.Layout
+    output: Path
+    chunk_size: int
+    log: Callable[[str], None]
+    result: RunResult
+    chunks: list = dataclasses.field(default_factory=list)
+
+
+@dataclasses.dataclass
+class _Totals:
+    """Wall and kernel time of every chunk of the dataset, this session's and resumed."""
+
+    wall: float = 0.0
+    kernel: float = 0.0
+
+    def add(self, wall, kernel):
+        self.wall += wall
+        self.kernel += kernel
+
+
+def _prepare(cfg, output, chunk_size, quiet, log):
+    """Step 1: load the configuration, resolve the output, build the design and plan."""
+    if not isinstance(cfg, _config.Config):
+        cfg = _config.load(cfg)
+    if log is None:
+        log = (lambda msg: None) if quiet else (lambda msg: print(msg, file=sys.stderr))
+    output = Path(output) if output is not None else default_output(cfg)
+    chunk_size = int(chunk_size or cfg.chunk_size)
+    unknown = set(cfg.outputs.methods) - set(api.METHODS)
+    if unknown:  # config.METHODS and api.METHODS drifted apart
+        raise _config.ConfigError(f"methods {sorted(unknown)} are not provided by sweep.api")
+    design = _design.build(cfg.design)
+    return _Job(cfg=cfg, design=design, plan=ComputePlan.from_config(cfg),
+                layout=_layout(design), output=output, chunk_size=chunk_size, log=log,
+                result=RunResult(output=output, n_points=design.size))
+
+
+def _existing_output_is_current(job, restart):
+    """Step 2: True if the output already holds this configuration's results.
+
+    An existing output is reused only if it is what this configuration would produce;
+    saved partial results (e.g. of an interrupted --restart) take precedence over it, and
+    any other existing file is refused rather than overwritten.
+    """
+    output = job.output
+    if not output.exists() or restart or store.partial_dir(output).exists():
+        return False
+    attrs = store.read_global_attrs(output)
+    if (attrs and attrs.get("sweep_config_sha256") == job.cfg.sha256
+            and attrs.get("sweep_version") == __version__
+            and attrs.get("sweep_source_sha256") == source_sha256()):
+        job.log(f"{output} is up to date (same configuration and version); nothing to do. "
+                "Use --restart to recompute it.")
+        return True
+    what = ("was made by a different configuration or version of sweep" if attrs
+            else "is not a sweep output")
+    raise store.ResumeError(f"{output} exists and {what}; use --restart to overwrite "
+                            "it, or choose another output with -o")
+
+
+def _plan_chunks(job):
+    """Step 3: cut the design into chunks; return the manifest the results depend on."""
+    job.chunks = _design.chunk_bounds(job.design.size, job.chunk_size)
+    return {
+        "config_sha256": job.cfg.sha256,
+        "sweep_version": __version__,
+        "sweep_source_sha256": source_sha256(),
+        "output": job.output.name,
+        "n_points": job.design.size,
+        "chunk_size": job.chunk_size,
+        "variables": list(job.plan.variables),
+        "design": job.design.describe(),
+    }
+
+
+def _open_partial(job, manifest, restart):
+    """Step 4: create or reopen the resumable state; return it and the finished chunks."""
+    partial = store.PartialStore(job.output, manifest)
+    return partial, partial.open(restart=restart)
+
+
+def _report(job, t_start):
+    """Step 7: time the call and say what it did."""
+    result = job.result
+    result.wall_seconds = time.perf_counter() - t_start
+    job.log(f"wrote {job.output}: {job.design.size} points ({result.computed_points} "
+            f"computed) in {result.wall_seconds:.1f} s, {result.points_per_second:.4g} pt/s")
+    return result
+
+
+def _chunk_points(job, start, stop):
+    return dict(zip(_config.PARAMETERS, job.design.points(start, stop)))
+
+
+def _tasks(job, partial, done, behind, totals, bar) -> Iterator[tuple]:
+    """Chunks to compute, in order; saved chunks are copied into the output on the way
+    (in order, so storage chunks are written sequentially)."""
+    for index, (start, stop) in enumerate(job.chunks):
+        need_points = index not in done or job.layout.point_coords
+        points = _chunk_points(job, start, stop) if need_points else None
+        if index in done:
+            loaded = partial.load_chunk(index, start, stop)
+            if loaded is not None:
+                arrays, (wall, kernel) = loaded
+                behind.write(start, stop, arrays, points)
+                totals.add(wall, kernel)
+                job.result.resumed_chunks += 1
+                continue
+            job.log(f"chunk {index}: saved file unreadable, recomputing it")
+            done.discard(index)
+            bar.update(-(stop - start))  # it was counted as done at the start
+            if points is None:
+                points = _chunk_points(job, start, stop)
+        yield index, start, stop, points
+
+
+def _stream_chunks(job, partial, done, behind, quiet, scheduler):
+    """Step 5: compute the missing chunks, saving and writing each as it finishes.
+
+    Returns the :class:`_Totals` of the whole dataset (resumed chunks included).
+    """
+    done = {i for i in done if i < len(job.chunks)}
+    done_points = sum(job.chunks[i][1] - job.chunks[i][0] for i in done)
+    job.log(f"sweep: {job.design.describe()}; {len(job.chunks)} chunks of <= "
+            f"{job.chunk_size} points"
+            + (f"; resuming, {len(done)} chunks already done" if done else ""))
+    totals, result = _Totals(), job.result
+    last = time.perf_counter()
+    with _progress(job.design.size, done_points, quiet, job.output.name) as bar:
+        tasks = _tasks(job, partial, done, behind, totals, bar)
+        executor = (_local_executor(job.plan, tasks) if scheduler is None
+                    else _dask_executor(job.plan, tasks, scheduler))
+        for index, start, stop, points, arrays, kernel in executor:
+            # A chunk's wall time runs from the end of the previous one's computation
+            # (so its own saving and writing count towards the next chunk).
+            now = time.perf_counter()
+            wall, last = now - last, now
+            partial.save_chunk(index, start, stop, arrays, [wall, kernel])
+            behind.write(start, stop, arrays, points)
+            totals.add(wall, kernel)
+            result.computed_points += stop - start
+            result.kernel_seconds += kernel
+            bar.update(stop - start)
+    return totals
+
+
+def _finish(job, partial, writer, behind, totals):
+    """Step 6: complete the file (timing attributes), publish it atomically, clean up."""
+    behind.drain()
+    job.result.chunks = len(job.chunks)
+    run_time = totals.wall
+    writer.set_attrs({
+        "run_time_s": round(run_time, 3),
+        "kernel_time_s": round(totals.kernel, 3),
+        "points_per_second": (round(job.design.size / run_time, 1) if run_time > 0
+                              else -1.0),
+    })
+    writer.close()
+    store.commit(partial.assembling, job.output)
+    partial.remove()
+
+
+def _write_output(job, partial, done, quiet, scheduler):
+    """Steps 5 and 6 around one writer; whatever happens, the file and lock are released."""
+    writer = behind = None
+    try:
+        writer = store.NetCDFWriter(partial.assembling, job.layout, job.plan.variables,
+                                    _static_attrs(job.cfg, job.design, job.plan,
+                                                  job.chunk_size))
+        behind = _WriteBehind(writer, depth=WRITE_BEHIND)
+        totals = _stream_chunks(job, partial, done, behind, quiet, scheduler)
+        _finish(job, partial, writer, behind, totals)
+    except KeyboardInterrupt:
+        n_saved = len(partial.finished())
+        job.log(f"\ninterrupted: {n_saved} of {len(job.chunks)} chunks are saved in "
+                f"{partial.dir}; rerun the same command to resume")
+        raise
+    finally:
+        if behind is not None:
+            behind.shutdown()
+        if writer is not None:
+            writer.close()
+        partial.release()
+
+
+def run(cfg: _config.Config | str | Path, output: str | Path | None = None, *,
+        restart: bool = False, quiet: bool = False, chunk_size: int | None = None,
+        scheduler: Any = None, log: Callable[[str], None] | None = None) -> RunResult:
     """Run a sweep and write its dataset.
 
     Parameters
@@ -368,124 +598,11 @@ def run(cfg, output=None, *, restart=False, quiet=False, chunk_size=None, schedu
         Saved partial results or an existing output do not match this configuration.
     """
     t_start = time.perf_counter()
-    if not isinstance(cfg, _config.Config):
-        cfg = _config.load(cfg)
-    if log is None:
-        log = (lambda msg: None) if quiet else (lambda msg: print(msg, file=sys.stderr))
-    output = Path(output) if output is not None else default_output(cfg)
-    chunk_size = int(chunk_size or cfg.chunk_size)
-    unknown = set(cfg.outputs.methods) - set(api.METHODS)
-    if unknown:  # config.METHODS and api.METHODS drifted apart
-        raise _config.ConfigError(f"methods {sorted(unknown)} are not provided by sweep.api")
-    design = _design.build(cfg.design)
-    plan = ComputePlan.from_config(cfg)
-    result = RunResult(output=output, n_points=design.size)
-
-    # An existing output is reused only if it is what this configuration would produce;
-    # saved partial results (e.g. of an interrupted --restart) take precedence over it.
-    if output.exists() and not restart and not store.partial_dir(output).exists():
-        attrs = store.read_global_attrs(output)
-        if (attrs and attrs.get("sweep_config_sha256") == cfg.sha256
-                and attrs.get("sweep_version") == __version__
-                and attrs.get("sweep_source_sha256") == source_sha256()):
-            log(f"{output} is up to date (same configuration and version); nothing to do. "
-                "Use --restart to recompute it.")
-            result.up_to_date = True
-            return result
-        what = ("was made by a different configuration or version of sweep" if attrs
-                else "is not a sweep output")
-        raise store.ResumeError(f"{output} exists and {what}; use --restart to overwrite "
-                                "it, or choose another output with -o")
-
-    chunks = _design.chunk_bounds(design.size, chunk_size)
-    manifest = {
-        "config_sha256": cfg.sha256,
-        "sweep_version": __version__,
-        "sweep_source_sha256": source_sha256(),
-        "output": output.name,
-        "n_points": design.size,
-        "chunk_size": chunk_size,
-        "variables": list(plan.variables),
-        "design": design.describe(),
-    }
-    partial = store.PartialStore(output, manifest)
-    done = partial.open(restart=restart)
-    writer = behind = None
-    try:
-        layout = _layout(design)
-        writer = store.NetCDFWriter(partial.assembling, layout, plan.variables,
-                                    _static_attrs(cfg, design, plan, chunk_size))
-        behind = _WriteBehind(writer, depth=WRITE_BEHIND)
-        done = {i for i in done if i < len(chunks)}
-        done_points = sum(chunks[i][1] - chunks[i][0] for i in done)
-        log(f"sweep: {design.describe()}; {len(chunks)} chunks of <= {chunk_size} points"
-            + (f"; resuming, {len(done)} chunks already done" if done else ""))
-        totals = {"wall": 0.0, "kernel": 0.0}   # over all sessions, from the chunk files
-        last = time.perf_counter()
-
-        def account(wall, kernel):
-            totals["wall"] += wall
-            totals["kernel"] += kernel
-
-        def tasks():
-            """Chunks to compute, in order; saved chunks are copied into the output on the
-            way (in order, so storage chunks are written sequentially)."""
-            for index, (start, stop) in enumerate(chunks):
-                need_points = index not in done or layout.point_coords
-                points = (dict(zip(_config.PARAMETERS, design.points(start, stop)))
-                          if need_points else None)
-                if index in done:
-                    loaded = partial.load_chunk(index, start, stop)
-                    if loaded is not None:
-                        arrays, (wall, kernel) = loaded[0], loaded[1]
-                        behind.write(start, stop, arrays, points)
-                        account(wall, kernel)
-                        result.resumed_chunks += 1
-                        continue
-                    log(f"chunk {index}: saved file unreadable, recomputing it")
-                    done.discard(index)
-                    bar.update(-(stop - start))  # it was counted as done at the start
-                    if points is None:
-                        points = dict(zip(_config.PARAMETERS, design.points(start, stop)))
-                yield index, start, stop, points
-
-        with _progress(design.size, done_points, quiet, output.name) as bar:
-            executor = (_local_executor(plan, tasks()) if scheduler is None
-                        else _dask_executor(plan, tasks(), scheduler))
-            for index, start, stop, points, arrays, kernel in executor:
-                # A chunk's wall time runs from the end of the previous one's computation
-                # (so its own saving and writing count towards the next chunk).
-                now = time.perf_counter()
-                wall, last = now - last, now
-                partial.save_chunk(index, start, stop, arrays, [wall, kernel])
-                behind.write(start, stop, arrays, points)
-                account(wall, kernel)
-                result.computed_points += stop - start
-                result.kernel_seconds += kernel
-                bar.update(stop - start)
-        behind.drain()
-        result.chunks = len(chunks)
-        run_time = totals["wall"]
-        writer.set_attrs({
-            "run_time_s": round(run_time, 3),
-            "kernel_time_s": round(totals["kernel"], 3),
-            "points_per_second": round(design.size / run_time, 1) if run_time > 0 else -1.0,
-        })
-        writer.close()
-        store.commit(partial.assembling, output)
-        partial.remove()
-    except KeyboardInterrupt:
-        n_saved = len(partial.finished())
-        log(f"\ninterrupted: {n_saved} of {len(chunks)} chunks are saved in {partial.dir}; "
-            "rerun the same command to resume")
-        raise
-    finally:
-        if behind is not None:
-            behind.shutdown()
-        if writer is not None:
-            writer.close()
-        partial.release()
-    result.wall_seconds = time.perf_counter() - t_start
-    log(f"wrote {output}: {design.size} points ({result.computed_points} computed) in "
-        f"{result.wall_seconds:.1f} s, {result.points_per_second:.4g} pt/s")
-    return result
+    job = _prepare(cfg, output, chunk_size, quiet, log)
+    if _existing_output_is_current(job, restart):
+        job.result.up_to_date = True
+        return job.result
+    manifest = _plan_chunks(job)
+    partial, done = _open_partial(job, manifest, restart)
+    _write_output(job, partial, done, quiet, scheduler)
+    return _report(job, t_start)

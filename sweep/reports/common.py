@@ -1,0 +1,202 @@
+"""Helpers every report shares: the plotting backend, the machine description, tables.
+
+Owns :func:`use_agg` (matplotlib with the Agg backend, imported on demand so that importing
+a report stays fast), :func:`machine_description` / :func:`machine_line` (where numbers were
+measured), :func:`format_value` and :func:`write_table` (CSV at full precision, markdown at a
+few digits) and :func:`log_progress`.
+
+Floor 5 (the reports' ground): may import numpy, scipy, numba, matplotlib (lazily) and the
+package's public api (:func:`sweep.integrate`, lazily, to learn numba's threading layer);
+never another report module, the runner's command line or argparse.
+"""
+from __future__ import annotations
+
+import csv
+import math
+import os
+import platform
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+__all__ = ["use_agg", "machine_description", "machine_line", "format_value", "write_table",
+           "log_progress"]
+
+
+def log_progress(progress: bool, msg: str) -> None:
+    """Print ``msg`` to stderr (flushed) if ``progress`` is true."""
+    if progress:
+        print(msg, file=sys.stderr, flush=True)
+
+
+def use_agg() -> Any:
+    """Import matplotlib with the non-interactive Agg backend.
+
+    Returns
+    -------
+    module
+        ``matplotlib.pyplot``.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _cpu_model():
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.lower().startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def machine_description() -> dict[str, Any]:
+    """Where the numbers were measured: CPU, cores, numba threading, versions.
+
+    Runs a tiny parallel integration first so that numba's threading layer is known.
+
+    Returns
+    -------
+    dict
+        ``cpu``, ``logical_cores``, ``usable_cores``, ``numba_threads``,
+        ``threading_layer``, versions, ``platform`` and ``load_average``.
+    """
+    import numba
+    import numpy as np
+    import scipy
+
+    import sweep
+
+    try:
+        sweep.integrate(1.5, 1.5, np.full(2048, 0.01), 0.1, parallel=True)
+        layer = numba.threading_layer()
+    except Exception as exc:  # pragma: no cover - no parallel layer available
+        layer = f"unavailable ({exc.__class__.__name__})"
+    try:
+        affinity = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # pragma: no cover - not Linux
+        affinity = os.cpu_count()
+    return {
+        "cpu": _cpu_model(),
+        "logical_cores": os.cpu_count(),
+        "usable_cores": affinity,
+        "numba_threads": numba.get_num_threads(),
+        "threading_layer": layer,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "numba": numba.__version__,
+        "sweep": sweep.__version__,
+        "platform": platform.platform(),
+        "load_average": _loadavg(),
+    }
+
+
+def _loadavg():
+    """1-minute load average when measured (other processes compete for the cores)."""
+    try:
+        return round(os.getloadavg()[0], 2)
+    except (AttributeError, OSError):  # pragma: no cover - not Unix
+        return None
+
+
+def machine_line(m: Mapping[str, Any]) -> str:
+    """One-line form of :func:`machine_description` (its returned dict ``m``)."""
+    return (f"{m['cpu']}, {m['usable_cores']} usable cores ({m['numba_threads']} numba "
+            f"threads, {m['threading_layer']} layer); Python {m['python']}, numpy "
+            f"{m['numpy']}, scipy {m['scipy']}, numba {m['numba']}, sweep {m['sweep']}; "
+            f"{m['platform']}; load average {m.get('load_average')} at start")
+
+
+def format_value(x: Any, digits: int = 3) -> str:
+    """Compact text of a table value: ``-`` for None, ``nan``, ``0``, or ``1.23e-04``.
+
+    Strings, booleans and integers are written as they are; other numbers with ``digits``
+    significant digits in exponent form.
+    """
+    if x is None:
+        return "-"
+    if isinstance(x, str):
+        return x
+    if isinstance(x, (bool,)):
+        return str(x)
+    if isinstance(x, int):
+        return str(x)
+    x = float(x)
+    if math.isnan(x):
+        return "nan"
+    if x == 0.0:
+        return "0"
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    return f"{x:.{digits - 1}e}"
+
+
+def write_table(rows: Sequence[Mapping[str, Any]], columns: Sequence[str],
+                csv_path: str | os.PathLike | None = None,
+                md_path: str | os.PathLike | None = None, title: str | None = None,
+                notes: Sequence[str] = (), digits: int = 3,
+                formats: Mapping[str, str] | None = None) -> str:
+    """Write rows (dicts) as CSV (full precision) and/or markdown (``digits`` digits).
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        One dict per row; missing keys are empty cells.
+    columns : sequence of str
+        Columns, in order.
+    csv_path, md_path : path-like, optional
+        Where to write the CSV and the markdown (neither: only return the markdown).
+    title : str, optional
+        Markdown heading (``###``).
+    notes : sequence of str
+        Bullet points after the markdown table.
+    digits : int
+        Significant digits of the markdown numbers (see :func:`format_value`).
+    formats : dict, optional
+        Column -> format spec for the markdown (e.g. ``{"alpha": "g"}``).
+
+    Returns
+    -------
+    str
+        The markdown text.
+    """
+    formats = dict(formats or {})
+    formats.setdefault("alpha", "g")
+    formats.setdefault("beta", "g")
+
+    def cell(r, c):
+        v = r.get(c)
+        if c in formats and isinstance(v, (float, int)) and not isinstance(v, bool):
+            return format(v, formats[c])
+        return format_value(v, digits)
+
+    if csv_path is not None:
+        with open(csv_path, "w", newline="", encoding="utf-8") as f:
+            w = csv.DictWriter(f, fieldnames=columns, extrasaction="ignore")
+            w.writeheader()
+            for r in rows:
+                w.writerow({c: ("" if r.get(c) is None else
+                                (repr(float(r[c])) if isinstance(r.get(c), float) else r[c]))
+                            for c in columns})
+    lines = []
+    if title:
+        lines += [f"### {title}", ""]
+    lines.append("| " + " | ".join(columns) + " |")
+    lines.append("|" + "|".join("---" for _ in columns) + "|")
+    for r in rows:
+        lines.append("| " + " | ".join(cell(r, c) for c in columns) + " |")
+    if notes:
+        lines.append("")
+        lines += [f"- {n}" for n in notes]
+    text = "\n".join(lines) + "\n"
+    if md_path is not None:
+        Path(md_path).write_text(text, encoding="utf-8")
+    return text

@@ -1,0 +1,155 @@
+"""Reading a finished dataset back: the ``sweep info`` summary and the global attributes.
+
+Owns :func:`summarize` (dimensions, coordinates, variables with summary statistics and
+settings, read in bounded pieces so a file of any size can be described) and
+:func:`read_global_attrs` (how the runner recognises an existing output).
+
+May import: numpy, netCDF4 and the store's own :mod:`~sweep.store.layout` and
+:mod:`~sweep.store.metadata`. Nothing of numba, the kernels or any floor above the store.
+"""
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterator
+from typing import Any
+
+import netCDF4
+import numpy as np
+
+from sweep.store.layout import flat_blocks
+from sweep.store.metadata import variable_spec
+
+__all__ = ["summarize", "read_global_attrs"]
+
+#: Global attributes listed under "settings" by :func:`summarize` (prefixes).
+_SETTINGS = ("integrator_", "options_", "design", "chunk_size", "n_points", "sweep_version",
+             "numba_version", "numpy_version", "run_time", "compute_time",
+             "points_per_second", "date_created", "sweep_config_sha256")
+
+
+def read_global_attrs(path: str | os.PathLike) -> dict[str, Any] | None:
+    """Global attributes of a netCDF file, or None if it is not a readable netCDF file.
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    dict or None
+    """
+    try:
+        with netCDF4.Dataset(path, "r") as nc:
+            return {k: nc.getncattr(k) for k in nc.ncattrs()}
+    except OSError:
+        return None
+
+
+def _iter_flat(var, shape, block=2 ** 22) -> Iterator[np.ndarray]:
+    """Read a variable in flat C-order pieces of at most ``block`` elements."""
+    size = math.prod(shape)
+    for s in range(0, size, block):
+        e = min(s + block, size)
+        for sl, lo, hi in flat_blocks(shape, s, e):
+            yield np.asarray(var[sl]).reshape(-1)
+
+
+def summarize(path: str | os.PathLike) -> str:
+    """Human-readable description of an output file.
+
+    Parameters
+    ----------
+    path : path-like
+        A dataset written by ``sweep run``.
+
+    Returns
+    -------
+    str
+        Dimensions, coordinates with their ranges, variables with summary statistics, and
+        settings, one item per line. The data are read in bounded pieces.
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read as netCDF.
+    """
+    lines = []
+    with netCDF4.Dataset(path, "r") as nc:
+        nc.set_auto_maskandscale(False)
+        attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
+        lines.append(f"{path}: {attrs.get('title', '')}")
+        dims = {d: len(nc.dimensions[d]) for d in nc.dimensions}
+        lines.append("dimensions: " + ", ".join(f"{d} = {n}" for d, n in dims.items())
+                     + f"  ({math.prod(dims.values())} points)")
+        coord_names = [n for n in ("alpha", "beta", "gamma", "gtilde") if n in nc.variables]
+        lines.append("coordinates:")
+        lines += [_coordinate_line(name, nc.variables[name]) for name in coord_names]
+        lines.append("variables:")
+        for name, var in nc.variables.items():
+            if name in coord_names:
+                continue
+            lines.append(f"  {name:<20} {var.getncattr('long_name')}")
+            lines.append("      " + _stats(name, var))
+        lines.append("settings:")
+        lines += [f"  {key} = {attrs[key]}" for key in sorted(attrs)
+                  if key.startswith(_SETTINGS)]
+    return "\n".join(lines)
+
+
+def _coordinate_line(name, var):
+    lo, hi = math.inf, -math.inf
+    for block in _iter_flat(var, var.shape):
+        lo, hi = min(lo, float(block.min())), max(hi, float(block.max()))
+    return f"  {name:<8} [{lo:.6g}, {hi:.6g}]  {var.getncattr('long_name')}"
+
+
+def _stats(name, var):
+    if name == "status":
+        return _status_stats(var)
+    if name == "sticks":
+        return _flag_stats(var)
+    return _value_stats(name, var)
+
+
+def _status_stats(var):
+    # The codes come from variable_spec, the store's one source of them, so the summary
+    # cannot drift from what the writer declares in flag_values / flag_meanings.
+    attrs = variable_spec("status")[1]
+    values = np.asarray(attrs["flag_values"], dtype=np.int64)
+    size = int(values.max()) + 1
+    counts = np.zeros(size, dtype=np.int64)
+    for block in _iter_flat(var, var.shape):
+        counts += np.bincount(block.astype(np.int64), minlength=size)[:size]
+    return ", ".join(f"{meaning}: {c}"
+                     for meaning, c in zip(attrs["flag_meanings"].split(), counts[values]))
+
+
+def _flag_stats(var):
+    n = t = 0
+    for block in _iter_flat(var, var.shape):
+        n += block.size
+        t += int(np.count_nonzero(block))
+    return f"true: {t} of {n} ({100.0 * t / max(n, 1):.3g}%)"
+
+
+def _value_stats(name, var):
+    n = nan = 0
+    lo, hi, total, amax = math.inf, -math.inf, 0.0, 0.0
+    for block in _iter_flat(var, var.shape):
+        block = block.astype(np.float64)
+        ok = np.isfinite(block)
+        n += block.size
+        nan += int(block.size - np.count_nonzero(ok))
+        good = block[ok]
+        if good.size:
+            lo, hi = min(lo, float(good.min())), max(hi, float(good.max()))
+            total += float(good.sum())
+            amax = max(amax, float(np.abs(good).max()))
+    valid = n - nan
+    if not valid:
+        return f"all {n} values NaN"
+    text = f"min {lo:.6g}, mean {total / valid:.6g}, max {hi:.6g}, NaN {nan} of {n}"
+    if name.startswith("error_"):
+        text += f", max |error| {amax:.3g}"
+    return text
