@@ -30,7 +30,7 @@ Modules, one job each:
     :func:`summarize` (``sweep info``), :func:`read_global_attrs`.
 
 This package re-exports their public names (``from sweep import store; store.X``). It is
-floor 1: it may import numpy, netCDF4 and floor 0 facts (:class:`sweep.model.Status`, in
+floor 1: it may import numpy, netCDF4 and floor 0 facts (:mod:`sweep.registry`, in
 :mod:`~sweep.store.metadata` only); it knows nothing of numba, the kernels, the api or how
 the values are computed.
 """

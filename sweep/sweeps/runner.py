@@ -406,9 +406,6 @@ def _prepare(cfg, output, chunk_size, quiet, log):
         log = (lambda msg: None) if quiet else (lambda msg: print(msg, file=sys.stderr))
     output = Path(output) if output is not None else default_output(cfg)
     chunk_size = int(chunk_size or cfg.chunk_size)
-    unknown = set(cfg.outputs.methods) - set(api.METHODS)
-    if unknown:  # config.METHODS and api.METHODS drifted apart
-        raise _config.ConfigError(f"methods {sorted(unknown)} are not provided by sweep.api")
     design = _design.build(cfg.design)
     return _Job(cfg=cfg, design=design, plan=ComputePlan.from_config(cfg),
                 layout=_layout(design), output=output, chunk_size=chunk_size, log=log,
