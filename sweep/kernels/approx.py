@@ -45,8 +45,9 @@ from sweep._arrays import PARAMETER_RULES, Broadcast
 from sweep.kernels._jit import kernel_cache
 from sweep.kernels._parallel import parallel_allowed
 from sweep.model import Status
-from sweep.kernels.special import (chebyshev_tables, first_order_constants, iq_at_zero, iq_chebyshev,
-                           iq_quadrature, large_gtilde_constants)
+from sweep.kernels.special import (CHEBYSHEV_N_MAX, chebyshev_tables, first_order_constants,
+                                   iq_at_zero, iq_chebyshev, iq_quadrature,
+                                   large_gtilde_constants)
 
 __all__ = ["METHODS", "SP_C2", "approx_cor", "coefficients", "coefficients_at_zero",
            "first_order_coefficients", "large_gtilde_coefficient", "parallel_allowed"]
@@ -208,12 +209,14 @@ def _kernel_serial(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
 
 
 def _check_n(n):
+    what = f"n must be an odd integer in [1, {CHEBYSHEV_N_MAX}], got {n!r}"
     try:
         ni = operator.index(n)
     except TypeError:
-        raise ValueError(f"n must be an odd integer >= 1, got {n!r}") from None
-    if isinstance(n, bool) or ni < 1 or ni % 2 == 0:
-        raise ValueError(f"n must be an odd integer >= 1, got {n!r}")
+        raise ValueError(what) from None
+    # Beyond CHEBYSHEV_N_MAX the kernel's quadrature table is too coarse (it returns NaN).
+    if isinstance(n, bool) or ni < 1 or ni % 2 == 0 or ni > CHEBYSHEV_N_MAX:
+        raise ValueError(what)
     return int(ni)
 
 
@@ -239,7 +242,8 @@ def approx_cor(method, alpha, beta, gamma, gtilde, n=_DEFAULT_N):
         1-D float64 arrays of equal length (already broadcast): exponents [1] (>= 1),
         scaled damping gamma [1] (>= 0) and load g~ [1] (>= 0) of (2).
     n : int, default 21
-        Odd order of the Chebyshev-Beta approximation (49), used by ``"ord2_approx"``.
+        Odd order of the Chebyshev-Beta approximation (49), used by ``"ord2_approx"``; at
+        most ``CHEBYSHEV_N_MAX`` (621).
 
     Returns
     -------
@@ -251,7 +255,8 @@ def approx_cor(method, alpha, beta, gamma, gtilde, n=_DEFAULT_N):
     Raises
     ------
     ValueError
-        Unknown method, n not an odd integer >= 1, or arrays of different shapes.
+        Unknown method, n not an odd integer in [1, CHEBYSHEV_N_MAX] (621), or arrays of
+        different shapes.
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
