@@ -35,7 +35,7 @@ __all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "
            "Option", "Method", "METHODS", "Field", "FIELDS", "valid_points", "check_scalar",
            "check_array", "register_method", "unregister_method", "register_field",
            "unregister_field", "method", "approximations", "integrator_fields",
-           "kernel_fields", "variable_names", "REPORT"]
+           "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX"]
 
 #: The report every equation number refers to.
 REPORT = ("A. Chatterjee, G. James, B. Brogliato, Approximate analytical coefficient of "
@@ -314,8 +314,13 @@ _INTEGRATOR_OPTIONS = (
     Option("max_steps", 200_000, lambda v: _is_number(v) and v >= 1 and float(v).is_integer(),
            "an integer >= 1 (step budget per point)"),
 )
-_CHEBYSHEV_N = Option("n", 21, lambda v: _is_int(v) and v >= 1 and v % 2 == 1,
-                      "an odd integer >= 1 (number of Chebyshev nodes, eq. (49))")
+#: Largest order n of the Chebyshev-Beta approximation (49) that the kernels evaluate (their
+#: quadrature table, sweep.kernels.special, is built for it).
+CHEBYSHEV_N_MAX = 621
+_CHEBYSHEV_N = Option("n", 21,
+                      lambda v: _is_int(v) and 1 <= v <= CHEBYSHEV_N_MAX and v % 2 == 1,
+                      f"an odd integer in [1, {CHEBYSHEV_N_MAX}] (number of Chebyshev nodes, "
+                      "eq. (49))")
 _ORD2 = ("e = min(sqrt(max(e^2, 0)), e_s), report Prop. 2, eqs. (36)-(38), with I(g~) and "
          "Q(g~) ")
 

@@ -213,7 +213,8 @@ def approx_cor(method, alpha, beta, gamma, gtilde, n=_DEFAULT_N):
         1-D float64 arrays of equal length (already broadcast): exponents [1] (>= 1),
         scaled damping gamma [1] (>= 0) and load g~ [1] (>= 0) of (2).
     n : int, default 21
-        Odd order of the Chebyshev-Beta approximation (49), used by ``"ord2_approx"``.
+        Odd order of the Chebyshev-Beta approximation (49), used by ``"ord2_approx"``; at
+        most :data:`sweep.registry.CHEBYSHEV_N_MAX`.
 
     Returns
     -------
@@ -225,7 +226,8 @@ def approx_cor(method, alpha, beta, gamma, gtilde, n=_DEFAULT_N):
     Raises
     ------
     ValueError
-        Unknown method, n not an odd integer >= 1, or arrays of different shapes.
+        Unknown method, n outside the rule of :data:`sweep.registry.CHEBYSHEV_N_MAX`, or
+        arrays of different shapes.
 
     The exponents where a method is defined at all (``"sp"``: Kuwabara-Kono only) are the
     registry's fact (:attr:`sweep.registry.Method.models`), applied by the caller.

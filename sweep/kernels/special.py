@@ -8,7 +8,7 @@ for tests). All quantities are dimensionless ("1").
 - :func:`jm_quadrature`, :func:`iq_quadrature` -- ``J, M`` of (47) and ``I, Q`` of Prop. 2
   by Gauss quadrature, to about 1e-15 relative;
 - :func:`jm_chebyshev`, :func:`iq_chebyshev` -- the report's Chebyshev-Beta approximation
-  (Prop. 3-4, eqs. 48-53);
+  (Prop. 3-4, eqs. 48-53), evaluated stably (below);
 - :func:`iq_at_zero` (39), (40), :func:`first_order_constants` (22),
   :func:`large_gtilde_constants` (23).
 
@@ -21,6 +21,26 @@ so that ``I = K J`` and ``Q = L M`` with ``K = 2 u_M^b / sqrt(theta)``,
 ``L = sqrt(theta) u_M^b`` and ``J = int_0^1 P^(1/2) x^(b-1) dx``,
 ``M = int_0^1 P^(-1/2) x^(b-1) dx``. Section 4.1 of the report defines ``I`` without the factor
 2; this module uses Prop. 2's definition throughout (SPEC section 6).
+
+How the finite differences of (53) are evaluated. The table of (53) is that of the integrals
+(105) of Appendix C, ``a_{j,k} = int_0^1 T_j(x-1) (1 - x^lam)^(-1/2) x^(s+k) dx`` with
+``lam = a + theta``, ``s = b + theta/2 - 3/2`` (``a_{0,k}`` is the Beta value of (53) by Def. 1,
+``t = x^lam``; the recurrence (53) = (107), its "- a_k" read as "- a_{j,k}", is the Chebyshev
+recurrence (106) applied under the integral). So the sum (49) is exactly (104)::
+
+    sum_{j even < n} c_j a_{j,0} = int_0^1 p_n(x) (1 - x^lam)^(-1/2) x^s dx,
+    p_n(x) = sum_{j even < n} c_j T_j(x - 1)   (the interpolant of h (51) at the nodes (52)).
+
+The recurrence builds ``T_j(x - 1)`` from the monomials ``x^k``, whose coefficients sum to
+``|T_j(-2)| ~ 3.7^j / 2`` in magnitude while ``|T_j(x - 1)| <= 1`` on [0, 1]: it takes
+differences of Beta values that agree to many digits, and loses up to log10(3.7) ~ 0.57
+digits per order (7 at n = 21 in practice; at n = 41 nothing is left). The integral (104) has no cancellation (the weight is
+positive and ``p_n`` is of the size of h), so :func:`jm_chebyshev` evaluates it instead:
+``p_n`` by Clenshaw's recurrence, the integral by a tanh-sinh rule (``_DE``) that absorbs the
+end-point singularities ``x^s`` and ``(1 - x)^(-1/2)``, with a step shrinking like 1/n so
+that the degree n-1 of ``p_n`` is resolved. The result is the report's formula (same n,
+nodes, coefficients and truncation) to ~1e-14 relative; at n = 21 it costs about what the
+recurrence did.
 """
 from __future__ import annotations
 
@@ -29,11 +49,11 @@ import math
 import numba as nb
 import numpy as np
 
+from sweep.registry import CHEBYSHEV_N_MAX
+
 __all__ = ["beta_fn", "gtilde_of_theta", "theta_of_gtilde", "jm_quadrature",
            "iq_quadrature", "jm_chebyshev", "iq_chebyshev", "chebyshev_tables", "iq_at_zero",
-           "first_order_constants", "large_gtilde_constants", "THETA_MIN"]
-
-_LGAMMA_HALF = 0.5 * math.log(math.pi)
+           "first_order_constants", "large_gtilde_constants", "THETA_MIN", "CHEBYSHEV_N_MAX"]
 
 #: Smallest theta the inverse map returns; larger g~ (beyond ~1e149 at alpha = 1) are out of
 #: range and give NaN.
@@ -48,24 +68,6 @@ def beta_fn(x, y):
     1e-14 for the arguments of (22)-(53) (x, y up to ~40); tested against scipy.
     """
     return math.exp(math.lgamma(x) + math.lgamma(y) - math.lgamma(x + y))
-
-
-@nb.njit(cache=True)
-def _beta_half(x):
-    """``B(x, 1/2) = sqrt(pi) Gamma(x) / Gamma(x + 1/2)``, the Beta function of (53), x > 0.
-
-    The recurrence (53) takes differences of up to 20th order of these values and amplifies
-    their rounding errors ~1e6-fold, so the ratio is reduced to an argument in (1, 2] by
-    ``Gamma(x + 1) = x Gamma(x)`` (exact shifts, one rounding per factor) before lgamma,
-    whose absolute error then is ~1e-17 instead of ~eps |lgamma(x)|.
-    """
-    num = 1.0
-    den = 1.0
-    while x > 2.0:
-        x -= 1.0
-        num *= x
-        den *= x + 0.5
-    return num / den * math.exp(math.lgamma(x) + _LGAMMA_HALF - math.lgamma(x + 0.5))
 
 
 # ----------------------------------------------------------------------------------------
@@ -288,6 +290,47 @@ def iq_quadrature(alpha, beta, gtilde):
 # The report's Chebyshev-Beta approximation (Prop. 3-4, Appendix C)
 # ----------------------------------------------------------------------------------------
 
+# Tanh-sinh rule for the integrals (104) that the sums (49) equal (module docstring):
+# x = 1/(1 + exp(-pi sinh t)), trapezoidal in t with step h on |t| <= 4, where the integrand
+# times dx/dt has fallen below ~1e-17 of the integral at both ends for every end-point
+# behaviour of (104) (x^(s+1) with s + 1 >= 1/2, and (1 - x)^(1/2)). The integrand contains
+# the degree n-1 polynomial p_n, so h must shrink like 1/n: h <= min(0.1, 4/(n + 19)) keeps
+# the quadrature error below ~1e-14 relative for n <= 201 and alpha, beta in [1, 10]
+# (measured against the recurrence in mpmath at 50-230 digits; h = 0.1 at the report's
+# n = 21). One table at step 1/_DE_PER_UNIT serves every n: step m/_DE_PER_UNIT takes every
+# m-th node.
+_DE_TMAX = 4
+_DE_RULE = 4                    # h (n + 19) <= 4
+# Fine enough for the largest order the registry admits (640 / 4 = 160 nodes per unit t).
+_DE_PER_UNIT = -(-(CHEBYSHEV_N_MAX + 19) // _DE_RULE)
+_DE_STRIDE_MAX = _DE_PER_UNIT // 10     # h = 0.1
+
+
+def _tanh_sinh_table():
+    """Rows x, log x, z = 2 (1 - x)^2 - 1 and dx/dt at t = i/_DE_PER_UNIT, |t| <= _DE_TMAX.
+
+    ``x``, ``1 - x`` and ``log x = -log1p(exp(-u))`` are each formed from ``exp(-u)``,
+    ``u = pi sinh t``, without subtraction, so they keep full relative precision at both
+    ends (x and 1 - x down to ~1e-37), where ``x^s`` and ``(1 - x^lam)^(-1/2)`` need it.
+    """
+    t = np.arange(-_DE_TMAX * _DE_PER_UNIT, _DE_TMAX * _DE_PER_UNIT + 1) / _DE_PER_UNIT
+    u = np.pi * np.sinh(t)
+    x = 1.0 / (1.0 + np.exp(-u))
+    d = 1.0 / (1.0 + np.exp(u))                  # 1 - x
+    logx = -np.log1p(np.exp(-u))
+    dxdt = np.pi * np.cosh(t) * x * d
+    return np.ascontiguousarray(np.vstack((x, logx, 2.0 * d * d - 1.0, dxdt)))
+
+
+_DE = _tanh_sinh_table()
+
+
+@nb.njit(cache=True)
+def _de_stride(n):
+    """Stride through ``_DE`` for order n: step ``min(0.1, 4/(n+19))``; 0 beyond N_MAX."""
+    return min(_DE_STRIDE_MAX, (_DE_RULE * _DE_PER_UNIT) // (n + 19))
+
+
 @nb.njit(cache=True)
 def chebyshev_tables(n):
     """Tables of (50)-(52) that depend on the order n only (n odd).
@@ -313,66 +356,12 @@ def chebyshev_tables(n):
 
 
 @nb.njit(cache=True)
-def _m_series(cj, a0, shift, n, row_a, row_b):
-    """``sum_{j even} c_j a_{j,0}`` (49) with the table (53) built row by row in O(n) memory.
+def _chebyshev_coefficients(alpha, theta, n, logx, cosjk, cj):
+    """``c_j`` of (50) for even ``j < n`` into ``cj[j/2]``, from ``h`` (51) at the nodes (52).
 
-    ``a_{0,k} = a0[shift + k]``; ``a_{1,k} = a_{0,k+1} - a_{0,k}``;
-    ``a_{j+2,k} = 2 a_{j+1,k+1} - 2 a_{j+1,k} - a_{j,k}`` (53, with the typo "- a_k" read as
-    "- a_{j,k}", see (107)). Row j+2 overwrites row j in place: entry k only needs entry k.
-    """
-    for k in range(n):
-        row_a[k] = a0[shift + k]
-    for k in range(n - 1):
-        row_b[k] = a0[shift + k + 1] - a0[shift + k]
-    total = cj[0] * row_a[0]
-    for j in range(n - 2):
-        # rows: cur = row j (to be replaced by row j+2), nxt = row j+1
-        if j % 2 == 0:
-            cur = row_a
-            nxt = row_b
-        else:
-            cur = row_b
-            nxt = row_a
-        for k in range(n - 2 - j):
-            cur[k] = 2.0 * nxt[k + 1] - 2.0 * nxt[k] - cur[k]
-        if j % 2 == 0:        # row j+2 is even
-            total += cj[(j + 2) // 2] * cur[0]
-    return total
-
-
-@nb.njit(cache=True)
-def jm_chebyshev(alpha, beta, theta, n, logx, cosjk, work):
-    """``J(theta)``, ``M(theta)`` by the report's Chebyshev-Beta approximation.
-
-    ``M_{a,b}(theta) ~ sum_{j even < n} c_j a_{j,0}`` (49)-(53): the factor
-    ``h = sqrt((x^(1-theta) - x^(a+1)) / P(x))`` (51) of the integrand is interpolated at the
-    Chebyshev nodes (52) and the products with ``(1 - x^(a+theta))^(-1/2) x^(b+theta/2-3/2)``
-    are integrated exactly through Beta functions. ``J`` follows from (48):
-    ``J_{a,b} = (a+1)/(2b) M_{a,a+b+1} + (theta-1)/(2b) M_{a,b+1}``. The coefficients c_j are
-    shared by the three M, and ``a_{0,k}`` of ``M_{a,b+1}`` is ``a_{0,k+1}`` of ``M_{a,b}``.
-
-    Exact at theta = 0 and 1 (h = 1); in between the relative error at n = 21 is up to ~1e-3
-    for J and ~7e-3 for M (alpha = 3/2, beta in [1, 4]; the interpolation error of h, not
-    rounding). The recurrence (53) amplifies rounding like ~4^n: beyond n ~ 25 it dominates.
-
-    Parameters
-    ----------
-    alpha, beta, theta : float
-        Exponents [1] (>= 1) and theta [1] in (0, 1].
-    n : int
-        Odd order of the approximation (the report uses 21).
-    logx, cosjk : ndarray
-        From :func:`chebyshev_tables` ``(n)``.
-    work : ndarray, shape (5, n + 1)
-        Scratch space.
+    Odd c_j vanish: h is interpolated as an even function of ``x - 1`` on [0, 2].
     """
     half = (n + 1) // 2
-    cj = work[0]
-    a0 = work[1]
-    a0b = work[2]
-    row_a = work[3]
-    row_b = work[4]
-    # c_j (50) from h (51) at the nodes in (0, 1); j even only (odd c_j vanish by symmetry).
     for jj in range(half):
         cj[jj] = 0.0
     for i in range(half):
@@ -386,15 +375,90 @@ def jm_chebyshev(alpha, beta, theta, n, logx, cosjk, work):
     cj[0] *= 2.0 / (n + 1)
     for jj in range(1, half):
         cj[jj] *= 4.0 / (n + 1)
-    # a_{0,k} (53) for M_{a,b} (k = 0..n-1) and M_{a,b+1} (k = 1..n), and for M_{a,a+b+1}.
+
+
+@nb.njit(cache=True)
+def _beta_moments(alpha, beta, theta, n, cj):
+    """The sums (49) for ``M_{a,b}``, ``M_{a,b+1}``, ``M_{a,a+b+1}`` as the integrals (104)::
+
+        sum_{j even} c_j a_{j,0} = int_0^1 p_n(x) (1 - x^lam)^(-1/2) x^s x^q dx,
+        s = b + theta/2 - 3/2,  lam = a + theta,  q = 0, 1, a + 1
+
+    (module docstring), by the tanh-sinh rule ``_DE`` at the step
+    ``_de_stride(n) / _DE_PER_UNIT``. ``p_n = sum_{j even} c_j T_j(x - 1)`` is summed by
+    Clenshaw's recurrence in ``z = 2 (x - 1)^2 - 1`` (``T_{2i}(y) = T_i(2 y^2 - 1)``, stable
+    for |z| <= 1); ``1 - x^lam`` as ``-expm1(lam log x)``, accurate near x = 1 where it
+    vanishes.
+    """
+    half = (n + 1) // 2
+    m = _de_stride(n)
     lam = alpha + theta
-    for k in range(n + 1):
-        a0[k] = _beta_half((beta + k - 0.5 + 0.5 * theta) / lam) / lam
-    for k in range(n):
-        a0b[k] = _beta_half((beta + alpha + 1.0 + k - 0.5 + 0.5 * theta) / lam) / lam
-    m_b = _m_series(cj, a0, 0, n, row_a, row_b)
-    m_b1 = _m_series(cj, a0, 1, n, row_a, row_b)
-    m_abp1 = _m_series(cj, a0b, 0, n, row_a, row_b)
+    s = beta + 0.5 * theta - 1.5
+    ap1 = alpha + 1.0
+    mid = _DE.shape[1] // 2
+    top = mid // m
+    m0 = 0.0
+    m1 = 0.0
+    m2 = 0.0
+    for k in range(-top, top + 1):
+        i = mid + k * m
+        x = _DE[0, i]
+        lx = _DE[1, i]
+        z = _DE[2, i]
+        b1 = 0.0
+        b2 = 0.0
+        for jj in range(half - 1, 0, -1):
+            b1, b2 = 2.0 * z * b1 - b2 + cj[jj], b1
+        p = z * b1 - b2 + cj[0]
+        f = _DE[3, i] * p * math.exp(s * lx) / math.sqrt(-math.expm1(lam * lx))
+        m0 += f
+        m1 += f * x
+        m2 += f * math.exp(ap1 * lx)
+    h = m / _DE_PER_UNIT
+    return h * m0, h * m1, h * m2
+
+
+@nb.njit(cache=True)
+def jm_chebyshev(alpha, beta, theta, n, logx, cosjk, work):
+    """``J(theta)``, ``M(theta)`` by the report's Chebyshev-Beta approximation.
+
+    ``M_{a,b}(theta) ~ sum_{j even < n} c_j a_{j,0}`` (49)-(53): the factor
+    ``h = sqrt((x^(1-theta) - x^(a+1)) / P(x))`` (51) of the integrand is interpolated at the
+    Chebyshev nodes (52) and the products with ``(1 - x^(a+theta))^(-1/2) x^(b+theta/2-3/2)``
+    are integrated exactly through Beta functions. ``J`` follows from (48):
+    ``J_{a,b} = (a+1)/(2b) M_{a,a+b+1} + (theta-1)/(2b) M_{a,b+1}``. The coefficients c_j are
+    shared by the three M.
+
+    The sums (49) are evaluated as the integrals (104) they equal (module docstring), not by
+    the recurrence (53), whose cancellation loses up to ~0.57 digits per order (7 at n = 21,
+    all at n = 41): the result is the report's formula to ~1e-14 relative (measured for n up
+    to 201 against the recurrence in 50- to 230-digit arithmetic, tests/test_chebyshev.py).
+
+    Exact at theta = 0 and 1 (h = 1); in between the relative error at n = 21 is up to ~1e-3
+    for J and ~7e-3 for M (alpha = 3/2, beta in [1, 4]; the interpolation error of h).
+
+    Parameters
+    ----------
+    alpha, beta, theta : float
+        Exponents [1] (>= 1) and theta [1] in (0, 1].
+    n : int
+        Odd order of the approximation (the report uses 21), at most ``CHEBYSHEV_N_MAX``
+        (beyond: NaN).
+    logx, cosjk : ndarray
+        From :func:`chebyshev_tables` ``(n)``.
+    work : ndarray, shape (5, n + 1)
+        Scratch space (row 0 holds the c_j; the shape is that of earlier versions).
+
+    Returns
+    -------
+    J, M : float
+        The approximations (48), (49) of the integrals (47) [1].
+    """
+    if _de_stride(n) < 1:
+        return math.nan, math.nan
+    cj = work[0]
+    _chebyshev_coefficients(alpha, theta, n, logx, cosjk, cj)
+    m_b, m_b1, m_abp1 = _beta_moments(alpha, beta, theta, n, cj)
     j_b = ((alpha + 1.0) * m_abp1 + (theta - 1.0) * m_b1) / (2.0 * beta)
     return j_b, m_b
 
