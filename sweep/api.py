@@ -55,12 +55,12 @@ def _integrator_options(options: dict[str, Any]) -> dict[str, Any]:
     """Validated integrator keywords (``steps``, ``rest_tol``, ``max_steps``), defaults filled."""
     out = registry.METHODS["numeric"].check_options(options)
     return {"steps": float(out["steps"]), "rest_tol": float(out["rest_tol"]),
-            "max_steps": int(out["max_steps"])}
+            "max_steps": int(out["max_steps"]), "refine": bool(out["refine"])}
 
 
 def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, steps: float | None = None,
               rest_tol: float = DEFAULT_REST_TOL, max_steps: int | None = None,
-              parallel: bool | None = None) -> IntegrationResult:
+              refine: bool = True, parallel: bool | None = None) -> IntegrationResult:
     """Numerical coefficient of restitution by a fixed-step Runge-Kutta 5(4) march.
 
     Integrates the scaled problem (2) in the Lipschitz form (4) with the three phases of the
@@ -80,7 +80,13 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, steps: float | 
     rest_tol : float, default 1e-8
         Rest criterion ``max(|u - u-bar|, |v|) < rest_tol`` (report, Sec. 3).
     max_steps : int, optional
-        Step budget per point (default :data:`DEFAULT_MAX_STEPS`).
+        Step budget per point, every march included (default :data:`DEFAULT_MAX_STEPS`).
+    refine : bool, default True
+        Check a point whose error indicator exceeds the refinement target
+        (:data:`sweep.kernels.integrator.REFINE_TARGET`) against a companion march at half
+        the resolution and march it again, finer, until its Richardson error is below the
+        target (near the stick/rebound boundary, where errors are amplified by 1/e). False:
+        exactly one fixed-step march per point (e.g. to measure the method's order).
     parallel : bool, optional
         Force the parallel (True) or serial (False) kernel; by default parallel unless called
         from a thread where numba's threading layer is unsafe. Results are bit-identical.
@@ -89,7 +95,8 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, steps: float | 
     -------
     IntegrationResult
     """
-    opts = _integrator_options({"steps": steps, "rest_tol": rest_tol, "max_steps": max_steps})
+    opts = _integrator_options({"steps": steps, "rest_tol": rest_tol, "max_steps": max_steps,
+                                "refine": refine})
     b = broadcast_points(alpha, beta, gamma, gtilde)
     out = integrate_arrays(*b.flat, parallel=parallel, **opts)
     for f in registry.FIELDS.values():

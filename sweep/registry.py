@@ -312,7 +312,10 @@ _INTEGRATOR_OPTIONS = (
     Option("rest_tol", 1e-8, lambda v: _is_number(v) and v > 0,
            "a number > 0 (rest criterion of the report, Sec. 3)"),
     Option("max_steps", 200_000, lambda v: _is_number(v) and v >= 1 and float(v).is_integer(),
-           "an integer >= 1 (step budget per point)"),
+           "an integer >= 1 (step budget per point, every march included)"),
+    Option("refine", True, lambda v: isinstance(v, (bool, np.bool_)),
+           "true or false (check points whose error indicator is above the target against "
+           "a companion march and march them again, finer; false: one fixed-step march)"),
 )
 #: Largest order n of the Chebyshev-Beta approximation (49) that the kernels evaluate (their
 #: quadrature table, sweep.kernels.special, is built for it).
@@ -436,6 +439,11 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
           "why the numerical computation of the point ended (Algorithm 1): "
           + ", ".join(f"{s.value} = {s.name.lower()}" for s in Status),
           flags={s.name.lower(): s.value for s in Status}),
+    Field("e_err", np.dtype(np.float64), "estimated error of the numerical CoR",
+          "estimate of |e - e_true| for e_numeric (report eq. (3)): from the energy balance "
+          "H = 1/2 - q of the integration (the energy defect of the march), from Richardson "
+          "extrapolation where the point was refined, or the bound of an asymptotic law; "
+          "calibrated on the test suite's high-precision references", fill_value=math.nan),
 )}
 
 

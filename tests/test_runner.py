@@ -67,7 +67,7 @@ def expected(text):
     a, b, g, gt = d.points(0, d.size)
     r = api.integrate(a, b, g, gt, **cfg.integrator.kwargs())
     out = {"e_numeric": r.e, "sticks": r.sticks, "t_f": r.t_f, "u_max": r.u_max,
-           "n_steps": r.n_steps, "status": r.status}
+           "n_steps": r.n_steps, "status": r.status, "e_err": r.e_err}
     for m in cfg.outputs.approximations:
         out[f"e_{m}"] = api.cor(a, b, g, gt, method=m, **cfg.method_options(m))
         out[f"error_{m}"] = out[f"e_{m}"] - r.e

@@ -27,7 +27,7 @@ from pathlib import Path
 import numba
 
 __all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "package_imports",
-           "cached_njit"]
+           "jit", "cached_jit", "FLAGS"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 _PACKAGE = _PACKAGE_DIR.name
@@ -144,8 +144,21 @@ def kernel_cache() -> Iterator[None]:
         numba.config.CACHE_DIR = previous
 
 
-def cached_njit(**options):
-    """``numba.njit(cache=True, **options)`` whose cache lives under :func:`cache_dir`.
+#: Compilation flags of every kernel. numpy's error model: a division by zero gives inf or
+#: NaN (which the kernels test for and turn into a status) instead of raising
+#: ZeroDivisionError out of a parallel loop and losing the whole call. No fastmath: the
+#: finiteness tests must hold, and IEEE semantics keep results bit-identical whatever the
+#: thread count, block or order.
+FLAGS = {"error_model": "numpy"}
+
+
+def jit(**options):
+    """``numba.njit`` with the package's :data:`FLAGS` (for helpers compiled into kernels)."""
+    return numba.njit(**FLAGS, **options)
+
+
+def cached_jit(**options):
+    """:func:`jit` with ``cache=True``, the cache living under :func:`cache_dir`.
 
     numba picks a dispatcher's cache location when the dispatcher is created, so creating it
     inside :func:`kernel_cache` is what keys it on the kernel sources, whenever and in
@@ -153,5 +166,5 @@ def cached_njit(**options):
     """
     def wrap(fn):
         with kernel_cache():
-            return numba.njit(cache=True, **options)(fn)
+            return numba.njit(cache=True, **FLAGS, **options)(fn)
     return wrap

@@ -42,7 +42,7 @@ import math
 import numba as nb
 import numpy as np
 
-from sweep.kernels._jit import cached_njit
+from sweep.kernels._jit import cached_jit
 from sweep.kernels._parallel import parallel_allowed
 from sweep.kernels.contact import in_domain
 from sweep.kernels.special import (chebyshev_tables, first_order_constants, iq_at_zero,
@@ -73,7 +73,7 @@ _CHUNK = 1024
 _DEFAULT_N = 21
 
 
-@cached_njit()
+@cached_jit()
 def _clip01(x):
     if x < 0.0:
         return 0.0
@@ -82,7 +82,7 @@ def _clip01(x):
     return x
 
 
-@cached_njit()
+@cached_jit()
 def _sqrt_plus(x):
     """``sqrt(max(x, 0))`` that keeps NaN."""
     if x > 0.0:
@@ -92,7 +92,7 @@ def _sqrt_plus(x):
     return math.nan
 
 
-@cached_njit()
+@cached_jit()
 def _ord2(beta, gamma, i_, q_):
     """Prop. 2, (36)-(38), clipped to [0, 1] (NaN passes through)."""
     bi = beta * i_ * gamma
@@ -106,7 +106,7 @@ def _ord2(beta, gamma, i_, q_):
     return _clip01(min(ep, es))
 
 
-@cached_njit()
+@cached_jit()
 def _run_range(code, start, stop, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
     """Evaluate points ``start .. stop-1`` serially (one chunk of the parallel kernel).
 
@@ -177,7 +177,7 @@ def _run_range(code, start, stop, alpha, beta, gamma, gtilde, n, e, status, aux1
             aux2[i] = x2 if good else math.nan
 
 
-@cached_njit(parallel=True)
+@cached_jit(parallel=True)
 def _kernel_parallel(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
     size = alpha.size
     nchunks = (size + _CHUNK - 1) // _CHUNK
@@ -186,7 +186,7 @@ def _kernel_parallel(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2)
                    n, e, status, aux1, aux2)
 
 
-@cached_njit()
+@cached_jit()
 def _kernel_serial(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
     _run_range(code, 0, alpha.size, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2)
 

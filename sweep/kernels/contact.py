@@ -19,12 +19,11 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numba as nb
-
+from sweep.kernels._jit import jit
 from sweep.registry import PARAMETERS
 
 __all__ = ["Law", "make_law", "power_kind", "ppow", "rhs", "velocity", "accel", "dissipated",
-           "damping_rate", "equilibrium", "well_depth", "damping_ratio", "natural_frequency",
+           "potential", "damping_rate", "equilibrium", "well_depth", "damping_ratio", "natural_frequency",
            "umax_undamped", "elastic_frequency", "in_domain", "KIND_ONE"]
 
 # Exponents of the report's models get a pow-free evaluation: pow() dominates the cost of a
@@ -51,7 +50,7 @@ class Law(NamedTuple):
     kd: int       # kind of beta - 1
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def in_domain(alpha, beta, gamma, gtilde):
     """The point lies in :data:`sweep.registry.PARAMETERS` (finite, above the minima)."""
     return (alpha >= _ALPHA_MIN and beta >= _BETA_MIN and gamma >= _GAMMA_MIN
@@ -59,7 +58,7 @@ def in_domain(alpha, beta, gamma, gtilde):
             and math.isfinite(gamma) and math.isfinite(gtilde))
 
 
-@nb.njit
+@jit()
 def power_kind(p):
     """Code selecting the evaluation of ``x**p`` in :func:`ppow`."""
     if p == 1.0:
@@ -83,14 +82,14 @@ def power_kind(p):
     return _KIND_GENERAL
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def make_law(alpha, beta, gamma, gtilde):
     """The :class:`Law` of a point (its power codes computed once)."""
     return Law(alpha, beta, gamma, gtilde, power_kind(alpha), power_kind(beta),
                power_kind(beta - 1.0))
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def ppow(x, p, kind):
     """``x**p`` for ``x > 0``, and 0 for ``x <= 0`` (the report's ``x_+^p``; also for p = 0,
     where it is the indicator of contact, closed at x = 0: the bead is in contact from its
@@ -118,7 +117,7 @@ def ppow(x, p, kind):
     return x ** p
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def rhs(u, w, c):
     """Right-hand side of (4) and of the dissipation integral: returns ``(u', w', r')``.
 
@@ -139,25 +138,32 @@ def rhs(u, w, c):
     return v, c.gtilde - pa, -c.gamma * pb * (c.gtilde - pa - c.gamma * c.beta * pd * v)
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def velocity(u, w, c):
     """``v = w - gamma u_+^beta``: the bead's velocity from the Lipschitz state (4)."""
     return w - c.gamma * ppow(u, c.beta, c.kb)
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def accel(u, v, c):
     """``dv/dtau = g~ - u^alpha - gamma beta u^(beta-1) v`` for u >= 0 (eq. (1) scaled)."""
     return c.gtilde - ppow(u, c.alpha, c.ka) - c.gamma * c.beta * ppow(u, c.beta - 1.0, c.kd) * v
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def dissipated(u, v, r, c):
     """Energy dissipated so far, ``q = gamma v u_+^beta + r`` (see :func:`rhs`)."""
     return c.gamma * v * ppow(u, c.beta, c.kb) + r
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
+def potential(u, c):
+    """``V(u) = u_+^(alpha+1)/(alpha+1) - g~ u``: the energy is ``H = v^2/2 + V(u)``, which
+    the damper lowers by exactly the dissipated energy q (``H = 1/2 - q``)."""
+    return u * ppow(u, c.alpha, c.ka) / (c.alpha + 1.0) - c.gtilde * u
+
+
+@jit(inline="always")
 def damping_rate(u, beta, gamma):
     """Local damping rate ``gamma beta u^(beta-1)`` [1/tau] (0 out of contact)."""
     if beta == 1.0:
@@ -167,25 +173,25 @@ def damping_rate(u, beta, gamma):
     return 0.0
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def equilibrium(alpha, gtilde):
     """Static equilibrium compression ``u-bar = g~^(1/alpha)`` (report Sec. 3)."""
     return gtilde ** (1.0 / alpha) if gtilde > 0.0 else 0.0
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def well_depth(alpha, gtilde):
     """Depth ``|V(u-bar)| = g~ u-bar alpha/(alpha+1)`` of the potential well of the load."""
     return gtilde * equilibrium(alpha, gtilde) * alpha / (alpha + 1.0) if gtilde > 0.0 else 0.0
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def natural_frequency(alpha, gtilde):
     """Linearised angular frequency about u-bar, ``omega_n = sqrt(alpha) g~^((alpha-1)/(2 alpha))``."""
     return math.sqrt(alpha) * gtilde ** ((alpha - 1.0) / (2.0 * alpha))
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def damping_ratio(alpha, beta, gamma, gtilde):
     """Linearised damping ratio about u-bar (underdamped iff < 1)::
 
@@ -194,7 +200,7 @@ def damping_ratio(alpha, beta, gamma, gtilde):
     return gamma * beta / (2.0 * math.sqrt(alpha)) * gtilde ** ((2.0 * beta - alpha - 1.0) / (2.0 * alpha))
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def umax_undamped(alpha, gtilde):
     """Undamped maximum compression ``u_M(g~)``, root of (13): ``u^(a+1)/(a+1) - g~ u = 1/2``.
 
@@ -219,7 +225,7 @@ def umax_undamped(alpha, gtilde):
     return u
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def elastic_frequency(alpha, u):
     """Linearised elastic frequency ``sqrt(alpha u^(alpha-1))`` at compression u."""
     return math.sqrt(alpha * u ** (alpha - 1.0))

@@ -9,8 +9,8 @@ Owns: event functions and their location on the interpolant. May import: contact
 """
 from __future__ import annotations
 
-import numba as nb
 
+from sweep.kernels._jit import jit
 from sweep.kernels.contact import velocity
 from sweep.kernels.stepper import dense_eval
 
@@ -20,7 +20,7 @@ ON_U = 0
 ON_V = 1
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def event_value(which, target, u, w, c):
     """``u - target`` (``which == ON_U``) or the velocity v (``ON_V``) of the law ``c``."""
     if which == ON_U:
@@ -28,7 +28,7 @@ def event_value(which, target, u, w, c):
     return velocity(u, w, c)
 
 
-@nb.njit
+@jit()
 def locate(which, target, u0, w0, Q, c, ta, tb):
     """Fraction ``theta`` in ``[ta, tb]`` of the step where the event function vanishes.
 

@@ -1,384 +1,190 @@
-"""Numerical CoR: a fixed-step Runge-Kutta march of (4) with the three phases of Algorithm 1.
+"""Numerical CoR of many points: regimes, the march, the energy-balance decision, refinement.
 
-Per point (scaled parameters ``alpha, beta, gamma, g~``) the bead starts at ``u = 0``,
-``w = 1`` and is marched with the base step of :mod:`sweep.kernels.stepsize` (graded near u = 0).
-Phases (report, Sec. 3 and Algorithm 1):
+Per point (scaled parameters ``alpha, beta, gamma, g~``):
 
-1. until ``v = 0`` crossing downward -- maximum compression ``u_max``;
-2. until ``u = u-bar`` crossing downward (with ``g~ = 0``, ``u-bar = 0`` and this is the
-   detachment itself);
-3. until ``u v = 0``: ``u = 0`` -> detachment, ``e = -v``; ``v = 0`` with ``u > 0`` -> the bead
-   sticks, ``e = 0``.
+1. outcomes known without marching are taken from :mod:`sweep.kernels.regimes` (gamma = 0,
+   the linear law's overdamped creep at g~ = 0, very deep load wells);
+2. otherwise the march (:mod:`sweep.kernels.march`) follows the impact through the phases
+   of Algorithm 1 and :mod:`sweep.kernels.outcome` turns where it ended into
+   ``(e, status, e_err)`` on the energy balance;
+3. a point whose error indicator exceeds the refinement target (near the stick/rebound
+   boundary, where every error is amplified by about 1/e, or where the balance cannot yet
+   tell a stick from a rebound) is checked by a companion march at half the resolution:
+   their difference over ``2^5 - 1`` (Richardson, order 5) is its error. If that exceeds
+   the target too, the point is marched again at ``steps`` times
+   ``f = 1.25 (e_err / target)^(1/5)`` (at most :data:`MAX_REFINEMENT`), and the error of
+   that march is ``|e_fine - e_coarse| / (f^5 - 1)``.
 
-Each event is bracketed by a sign test at the step's ends, located on the step's interpolant
-(:mod:`sweep.kernels.events`) and refined with full Runge-Kutta steps from the step's start (Newton
-on the re-stepped state), so located times and states carry the method's own accuracy.
-Grazing (u dipping below 0 inside one step and coming back) is caught in phase 3 through the
-velocity's sign change: the minimum of u at ``v = 0`` decides between sticking and detachment.
+``e_err`` is an estimate of ``|e - e_true|`` (see :mod:`sweep.kernels.outcome`), calibrated
+on the test suite's references (tests/test_hard_cases.py).
 
-Two extra stopping rules keep every point bounded:
+Points are taken in blocks from a shuffled order by the parallel kernel: costs vary by
+orders of magnitude (sticking ends early, heavy damping runs long) and ``prange`` splits
+the range evenly. Results never depend on the thread count, block or order.
 
-* rest: ``max(|u - u-bar|, |v|) < rest_tol`` -> ``e = 0``, status AT_REST (report, Sec. 3);
-* energy: ``H = v^2/2 + u_+^(alpha+1)/(alpha+1) - g~ u = 1/2 - q`` never increases
-  (q, the energy dissipated by the damper, is carried along, see :func:`sweep.kernels.stepper.rhs`)
-  and equals ``e^2/2 >= 0`` at a detachment, so once ``q > 1/2`` (beyond roundoff) the bead
-  can never leave the floor: ``e = 0``, status STUCK.
-  This is what ends overdamped points that creep towards u-bar. It is applied from phase 2 on,
-  and in phase 1 only when the linearisation about u-bar is overdamped (``xi >= 1``), where
-  phase 1 may never end; such points report ``u_max = NaN`` (maximum not reached).
-
-At detachment e is ``sqrt(1 - 2 q)`` or ``-v``, whichever is better conditioned (see
-:func:`_cor_at_exit`). A point that exhausts ``max_steps`` stops with status BUDGET_EXHAUSTED
-and ``e = sqrt(2 H) = sqrt(1 - 2 q)``:
-the energy still available bounds the rebound speed, so this is an upper bound of the CoR
-(tiny for the slow creep back to u = 0 of heavily damped points at g~ = 0), not a converged
-value.
-
-The linear law at g~ = 0 with gamma >= 2 (overdamped) is decided by its closed form: the bead
-only creeps back towards u = 0, exponentially slowly, and never leaves (AT_REST, e = 0,
-``t_f = inf``, exact ``u_max``).
-
-Conditioning: near the stick/rebound boundary e ~ sqrt(dip depth) amplifies every absolute
-error by about 1/e.
+Owns: the per-point solve and the array kernels. May import: regimes, march, outcome,
+contact, stepsize, registry, the parallel policy.
 """
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
 
-from sweep.kernels._jit import cached_njit
+from sweep.kernels._jit import cached_jit, jit
 from sweep.kernels._parallel import parallel_allowed
-from sweep.kernels.contact import (accel, damping_ratio, dissipated, equilibrium, in_domain,
-                                   make_law, ppow, rhs, velocity, well_depth)
-from sweep.kernels.events import ON_U, ON_V, locate
-from sweep.kernels.stepper import N_DENSE, N_STAGES, dense_coefficients, rk_step
-from sweep.kernels.stepsize import damping_step, first_guess, policy
+from sweep.kernels.contact import in_domain, make_law
+from sweep.kernels.march import march, scratch
+from sweep.kernels.outcome import ROUNDING, decide
+from sweep.kernels.regimes import deep_well, linear_overdamped, undamped
+from sweep.kernels.stepsize import policy
 from sweep.registry import METHODS, Status, kernel_fields
 
-__all__ = ["integrate_arrays", "integrate_point", "numeric_cor", "DEFAULT_STEPS",
-           "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL"]
+__all__ = ["integrate_arrays", "solve_point", "numeric_cor", "Settings", "DEFAULT_STEPS",
+           "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL", "REFINE_TARGET", "MAX_REFINEMENT"]
 
 _OPTIONS = {opt.name: opt.default for opt in METHODS["numeric"].options}
 #: Steps per half period of the stiffest linearised motion (see :mod:`sweep.kernels.stepsize`).
 DEFAULT_STEPS = _OPTIONS["steps"]
-#: Step budget per point (all Runge-Kutta steps, refinements included).
+#: Step budget per march (all Runge-Kutta steps, event refinement included).
 DEFAULT_MAX_STEPS = _OPTIONS["max_steps"]
 #: Rest tolerance of the report (Sec. 3).
 DEFAULT_REST_TOL = _OPTIONS["rest_tol"]
+#: Estimated error of e above which a point is checked (and marched again, finer).
+REFINE_TARGET = 1e-10
+#: Largest refinement of the resolution, in all.
+MAX_REFINEMENT = 8.0
 
 _OK = int(Status.OK)
-_STUCK = int(Status.STUCK)
-_AT_REST = int(Status.AT_REST)
 _BUDGET = int(Status.BUDGET_EXHAUSTED)
 _INVALID = int(Status.INVALID)
 
-# Relative roundoff in the dissipated energy q (a sum of positive terms): the stuck rule
-# waits until q exceeds the initial energy 1/2 by more than it.
-_ENERGY_ROUNDOFF = 1e-12
-# Where the energy balance beats -v for e (see _cor_at_exit).
-_BALANCE_THRESHOLD = 0.05
+
+class Settings(NamedTuple):
+    """Integrator settings shared by every point of a call."""
+
+    steps: float        # resolution (steps per half period)
+    rest_tol: float     # the report's rest criterion
+    max_steps: int      # budget per march
+    target: float       # refinement target on e_err (0: never refine)
 
 
-@nb.njit(inline="always")
-def _set_first_stage(K, fu, fw, fr):
-    K[0, 0] = fu
-    K[0, 1] = fw
-    K[0, 2] = fr
+@jit(inline="always")
+def _regime(c):
+    """An outcome known without marching: ``(decided, e, t_f, u_max, status, e_err)``."""
+    d = undamped(c)
+    if not d[0]:
+        d = linear_overdamped(c)
+    if not d[0]:
+        d = deep_well(c)
+    return d
 
 
-@nb.njit(inline="always")
-def _restep(u, w, r, d, K, K2, c):
-    """State at time ``d`` after the step's start, by one Runge-Kutta step of size ``d``."""
-    _set_first_stage(K2, K[0, 0], K[0, 1], K[0, 2])
-    return rk_step(u, w, r, d, K2, c)
+class Result(NamedTuple):
+    """One march of one point, decided (:func:`sweep.kernels.outcome.decide`)."""
+
+    e: float
+    t_f: float
+    u_max: float
+    n: int
+    status: int
+    err: float
+    e_q: float      # e from the energy balance (NaN where not defined)
+    e_v: float      # e from the velocity (NaN where not defined)
 
 
-@nb.njit(inline="always")
-def _cor_at_exit(q, v, swing2, damping):
-    """CoR at detachment from the better conditioned of two equal expressions.
-
-    ``e = sqrt(1 - 2 q)`` (energy balance, q the dissipated energy) inherits the relative
-    error of q: about ``eps / (2 e)`` in e. ``e = -v`` inherits the error of the velocity:
-    relative to the largest speed of the swing, ``sqrt(swing2)`` with
-    ``swing2 = 1 + 2 |V(u-bar)|``, and damped on the way out like a perturbation of the
-    linearised motion, by ``exp(-damping / 2)`` where ``damping`` estimates the integral of
-    the damping rate ``gamma beta u^(beta-1)`` over the impact: about
-    ``eps sqrt(swing2) exp(-damping / 2)``. The balance wins unless e is small and the
-    velocity's errors are damped out (heavy damping at small load). The threshold was
-    calibrated on both sides (linear closed form; KK and TTI near the stick boundary).
-    """
-    left = 1.0 - 2.0 * q
-    if left > 0.0 and 2.0 * math.sqrt(left * swing2) * math.exp(-0.5 * damping) >= _BALANCE_THRESHOLD:
-        return math.sqrt(left)
-    return max(-v, 0.0)
+@jit(inline="always")
+def _solve_at(c, steps, s, budget, K, K2, Q):
+    end = march(c, policy(c, steps), s.rest_tol, budget, K, K2, Q)
+    e, status, err, e_q, e_v = decide(c, end)
+    return Result(e, end.t, end.u_max, end.n, status, err, e_q, e_v)
 
 
-@nb.njit(inline="always")
-def _damping_integral(beta, gamma, u_max, t_f):
-    """Estimate of ``int gamma beta u^(beta-1) dtau`` over an impact of length t_f:
-    ``u^(beta-1)`` averaged over a half sine of amplitude u_max."""
-    p = beta - 1.0
-    mean = math.exp(math.lgamma(0.5 * (p + 1.0)) - math.lgamma(0.5 * p + 1.0)) / math.sqrt(math.pi)
-    return gamma * beta * mean * u_max ** p * t_f
+@jit(inline="always")
+def _richardson(fine, coarse, ratio):
+    """``(e_err, floor)`` of the finer of two marches ``ratio`` apart in resolution: their
+    difference over ``ratio^5 - 1`` (order 5) plus the rounding floor of the energy balance
+    (~1e-15 in q, amplified by 1/e), which refinement cannot lower. (The velocity's e, used
+    where e < 3e-5, is not extrapolated: its errors do not follow the order reliably.)"""
+    floor = ROUNDING * math.sqrt(fine.n + 1.0) / max(fine.e, 1e-300)
+    if fine.status != _OK or coarse.status != _OK:
+        # The decision changed with the resolution: only the difference is an honest bound.
+        return max(fine.err, abs(fine.e - coarse.e)), 0.0
+    return abs(fine.e - coarse.e) / (ratio ** 5 - 1.0) + floor, floor
 
 
-@nb.njit
-def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, c):
-    """Refine the detachment u = 0 inside ``[th_lo, th_hi]`` of the step from ``(u, w, r)``.
+@jit()
+def solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
+    """Numerical CoR of one point: ``(e, t_f, u_max, n_steps, status, e_err)``.
 
-    Returns ``(time from the step's start, dissipated energy q, velocity, re-steps used)``
-    at the detachment.
-    """
-    th = locate(ON_U, 0.0, u, w, Q, c, th_lo, th_hi)
-    lo = th_lo * s
-    hi = th_hi * s
-    d = th * s
-    used = 0
-    ue = 0.0
-    ve = -1.0
-    r_e = r
-    for _ in range(12):
-        ue, we, r_e = _restep(u, w, r, d, K, K2, c)
-        used += 1
-        ve = velocity(ue, we, c)
-        if ue > 0.0:
-            lo = d
-        else:
-            hi = d
-        dn = d - ue / ve if ve < 0.0 else 0.5 * (lo + hi)
-        if not (lo <= dn <= hi):
-            dn = 0.5 * (lo + hi)
-        if abs(dn - d) <= 2e-16 * d or hi - lo <= 2e-16 * d:
-            d = dn
-            break
-        d = dn
-    # The last Newton correction is O(u_e), within roundoff; apply it to first order.
-    delta = -ue / ve if ve < 0.0 else 0.0
-    v_f = ve + delta * (c.gtilde - ppow(ue, c.alpha, c.ka))
-    q_f = dissipated(ue, ve, r_e, c) + delta * c.gamma * c.beta * ppow(ue, c.beta - 1.0, c.kd) * ve * ve
-    return d, q_f, v_f, used
-
-
-@nb.njit(inline="always")
-def _stationary_u(u, v, c, upward):
-    """u at the vertex of the local parabola through (u, v): removes a residual v at an
-    extremum of u (``upward``: a minimum, where the acceleration is positive)."""
-    acc = accel(u, v, c)
-    if (acc > 0.0) if upward else (acc < 0.0):
-        return u - 0.5 * v * v / acc
-    return u
-
-
-@nb.njit(inline="always")
-def _linear_overdamped_g0(gamma):
-    """alpha = beta = 1, g~ = 0, gamma >= 2: u > 0 for ever (no rebound); returns u_max.
-
-    u = (exp(l1 t) - exp(l2 t)) / (l1 - l2) with l1,2 = -gamma/2 +- sqrt(gamma^2/4 - 1),
-    maximal where l1 exp(l1 t) = l2 exp(l2 t); t exp(-t) (maximum 1/e) at gamma = 2.
-    """
-    r = math.sqrt(max(0.25 * gamma * gamma - 1.0, 0.0))
-    if r == 0.0:
-        return math.exp(-1.0)
-    l1 = -0.5 * gamma + r
-    l2 = -0.5 * gamma - r
-    t = math.log(l2 / l1) / (l1 - l2)
-    return (math.exp(l1 * t) - math.exp(l2 * t)) / (l1 - l2)
-
-
-# --------------------------------------------------------------------------- one step
-
-@nb.njit(inline="always")
-def _advance(u, w, r, v, p, K, c, n, max_steps):
-    """One step of the march: size from the policy, then the damping cap judged at the
-    step's end (the step retaken, smaller, while it is exceeded). Returns the new state,
-    the step and the steps counter."""
-    s = first_guess(u, v, p, c)
-    fu0 = K[0, 0]
-    fw0 = K[0, 1]
-    fr0 = K[0, 2]
-    u1, w1, r1 = rk_step(u, w, r, s, K, c)
-    n += 1
-    if p.capped:
-        # A load can drive the bead deep into the damper within one step: judge the cap
-        # at the step's end too and retake the step if it was exceeded (twice: slack
-        # against retaking steps for nothing).
-        s_end = damping_step(u1, c.beta, c.gamma, p.steps)
-        while not (s <= 2.0 * s_end and math.isfinite(u1) and math.isfinite(w1)) and n < max_steps:
-            s = s_end if s_end < 0.5 * s else 0.5 * s
-            _set_first_stage(K, fu0, fw0, fr0)
-            u1, w1, r1 = rk_step(u, w, r, s, K, c)
-            n += 1
-            s_end = damping_step(u1, c.beta, c.gamma, p.steps)
-    return u1, w1, r1, s, n
-
-
-# --------------------------------------------------------------------------- phases
-
-@nb.njit(inline="always")
-def _may_have_event(phase, u1, v1, ubar):
-    """An event of Algorithm 1 may lie inside the step that ended at (u1, v1)."""
-    if phase == 1:
-        return v1 <= 0.0
-    if phase == 2:
-        return u1 < ubar or (ubar == 0.0 and u1 <= 0.0)
-    return u1 <= 0.0 or v1 >= 0.0
-
-
-@nb.njit(inline="always")
-def _compression_end(u, w, r, s, Q, K, K2, c):
-    """Phase 1 ends inside the step: maximum compression (v = 0). Returns its fraction of
-    the step and ``u_max``."""
-    th = locate(ON_V, 0.0, u, w, Q, c, 0.0, 1.0)
-    um, wm, _ = _restep(u, w, r, th * s, K, K2, c)
-    return th, _stationary_u(um, velocity(um, wm, c), c, False)
-
-
-@nb.njit(inline="always")
-def _trough(u, w, r, s, th0, Q, K, K2, c):
-    """Phase 3, v = 0 inside the step: the bead's lowest point after the swing. Returns its
-    fraction of the step and the minimum of u there (> 0: the bead sticks; <= 0: it dipped
-    below the floor inside the step -- grazing -- and left first)."""
-    th = locate(ON_V, 0.0, u, w, Q, c, th0, 1.0)
-    us, ws, _ = _restep(u, w, r, th * s, K, K2, c)
-    return th, _stationary_u(us, velocity(us, ws, c), c, True)
-
-
-# --------------------------------------------------------------------------- stopping rules
-
-@nb.njit(inline="always")
-def _at_rest(u, v, ubar, rest_tol):
-    """Rest criterion of the report (Sec. 3): ``max(|u - u-bar|, |v|) < rest_tol``."""
-    return max(abs(u - ubar), abs(v)) < rest_tol
-
-
-@nb.njit(inline="always")
-def _cannot_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
-    """Energy rule: the dissipated energy exceeds the initial 1/2 (beyond roundoff), so the
-    bead can never reach u = 0 again (H = 1/2 - q never increases and is e^2/2 >= 0 at a
-    detachment). q = gamma v u^beta + r, with gamma u^beta = w - v read off the state.
-    Applied from phase 2 on, and in phase 1 only when the linearisation is overdamped."""
-    return c.gtilde > 0.0 and (phase > 1 or energy_in_phase1) and v * (w - v) + r > q_stuck
-
-
-# --------------------------------------------------------------------------- driver
-
-@nb.njit
-def integrate_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, K, K2, Q):
-    """Numerical CoR of one point; returns ``(e, t_f, u_max, n_steps, status)``.
-
-    ``K``, ``K2`` (stages, shape (s, 3)) and ``Q`` (dense output, shape (2, q)) are scratch.
+    ``s`` is the :class:`Settings`; ``K``, ``K2``, ``Q`` are scratch arrays
+    (:func:`sweep.kernels.march.scratch`). A point whose indicator exceeds ``s.target`` is
+    checked against a companion march at half the resolution (Richardson); while that error
+    still exceeds the target, it is marched again, finer (module docstring).
     """
     if not in_domain(alpha, beta, gamma, gtilde):
-        return np.nan, np.nan, np.nan, 0, _INVALID
-    if alpha == 1.0 and beta == 1.0 and gtilde == 0.0 and gamma >= 2.0:
-        # Decided by the closed form: the march would only creep towards rest, exponentially slowly.
-        return 0.0, math.inf, _linear_overdamped_g0(gamma), 0, _AT_REST
+        return np.nan, np.nan, np.nan, 0, _INVALID, np.nan
     c = make_law(alpha, beta, gamma, gtilde)
-    return _march(c, policy(c, steps), rest_tol, max_steps, K, K2, Q)
+    d = _regime(c)
+    if d[0]:
+        return d[1], d[2], d[3], 0, d[4], d[5]
+    a = _solve_at(c, s.steps, s, s.max_steps, K, K2, Q)
+    if not (s.target > 0.0 and a.err > s.target and a.status != _BUDGET):
+        return a.e, a.t_f, a.u_max, a.n, a.status, a.err
+    # The budget covers every march of the point.
+    b = _solve_at(c, 0.5 * s.steps, s, s.max_steps - a.n, K, K2, Q)
+    n = a.n + b.n
+    err, floor = _richardson(a, b, 2.0)
+    done = 1.0
+    # Refine while the resolution-dependent part of the error is above the target.
+    while err - floor > s.target and done < MAX_REFINEMENT and n < s.max_steps:
+        f = min(max(1.25 * (err / s.target) ** 0.2, 1.5), MAX_REFINEMENT / done)
+        done *= f
+        b, a = a, _solve_at(c, done * s.steps, s, s.max_steps - n, K, K2, Q)
+        n += a.n
+        err, floor = _richardson(a, b, f)
+    return a.e, a.t_f, a.u_max, n, a.status, err
 
 
-@nb.njit
-def _march(c, p, rest_tol, max_steps, K, K2, Q):
-    """The three phases of Algorithm 1 for the law ``c`` with the step policy ``p``."""
-    ubar = equilibrium(c.alpha, c.gtilde)
-    energy_in_phase1 = c.gtilde > 0.0 and damping_ratio(c.alpha, c.beta, c.gamma, c.gtilde) >= 1.0
-    q_stuck = 0.5 * (1.0 + _ENERGY_ROUNDOFF)
-    t = u = r = 0.0
-    w = v = 1.0
-    fu, fw, fr = rhs(u, w, c)
-    _set_first_stage(K, fu, fw, fr)
-    phase = 1
-    u_max = np.nan
-    n = 0
-    while True:
-        if n >= max_steps:
-            # The energy still available, 1/2 - q, bounds the rebound speed.
-            q_now = dissipated(u, v, r, c)
-            return math.sqrt(max(1.0 - 2.0 * q_now, 0.0)), t, u_max, n, _BUDGET
-        u1, w1, r1, s, n = _advance(u, w, r, v, p, K, c, n, max_steps)
-        # The last (FSAL) stage is f at the step's end: its u' is the velocity v1, no power.
-        v1 = K[N_STAGES - 1, 0]
-        if _may_have_event(phase, u1, v1, ubar):
-            dense_coefficients(K, s, Q)
-            th0 = 0.0
-            if phase == 1 and v1 <= 0.0:
-                th0, u_max = _compression_end(u, w, r, s, Q, K, K2, c)
-                n += 1
-                phase = 2
-            if phase == 2 and ubar > 0.0 and u1 < ubar:
-                th0 = locate(ON_U, ubar, u, w, Q, c, th0, 1.0)
-                phase = 3
-            # With g~ = 0 (u-bar = 0) the return to u-bar in phase 2 is the detachment itself.
-            exiting = (phase == 3 or (phase == 2 and ubar == 0.0)) and u1 <= 0.0
-            th_exit = 1.0
-            if not exiting and phase == 3 and v1 >= 0.0:
-                th_exit, u_min = _trough(u, w, r, s, th0, Q, K, K2, c)
-                n += 1
-                if u_min > 0.0:
-                    return 0.0, t + th_exit * s, u_max, n, _STUCK
-                exiting = True
-            if exiting:
-                d, q_f, v_f, used = _detach(u, w, r, s, th0, th_exit, Q, K, K2, c)
-                swing2 = 1.0 + 2.0 * well_depth(c.alpha, c.gtilde)
-                lam = _damping_integral(c.beta, c.gamma, u_max, t + d)
-                return _cor_at_exit(q_f, v_f, swing2, lam), t + d, u_max, n + used, _OK
-        t += s
-        u = u1
-        w = w1
-        r = r1
-        v = v1
-        _set_first_stage(K, K[N_STAGES - 1, 0], K[N_STAGES - 1, 1], K[N_STAGES - 1, 2])
-        if _at_rest(u, v, ubar, rest_tol):
-            if phase == 1:
-                u_max = max(u, ubar)
-            return 0.0, t, u_max, n, _AT_REST
-        if _cannot_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
-            return 0.0, t, u_max, n, _STUCK
-
-
-@nb.njit
-def _run_range(lo, hi, order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps,
-               e, t_f, u_max, n_steps, status):
-    K = np.empty((N_STAGES, 3))
-    K2 = np.empty((N_STAGES, 3))
-    Q = np.empty((2, N_DENSE))
+@jit()
+def _run_range(lo, hi, order, alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status,
+               e_err):
+    K, K2, Q = scratch()
     for j in range(lo, hi):
         i = order[j]
-        r = integrate_point(alpha[i], beta[i], gamma[i], gtilde[i], steps, rest_tol, max_steps, K, K2, Q)
+        r = solve_point(alpha[i], beta[i], gamma[i], gtilde[i], s, K, K2, Q)
         e[i] = r[0]
         t_f[i] = r[1]
         u_max[i] = r[2]
         n_steps[i] = r[3]
         status[i] = r[4]
+        e_err[i] = r[5]
 
 
-# Points are taken in blocks from a shuffled order: costs vary by orders of magnitude
-# (sticking ends early, heavy damping runs long) and prange splits the range evenly.
-# No fastmath anywhere: the finiteness checks must hold, and IEEE semantics keep results
-# bit-identical whatever the thread count, block or order.
 _BLOCK = 64
 
 
-@cached_njit(parallel=True)
-def _kernel_parallel(order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps,
-                     e, t_f, u_max, n_steps, status):
+@cached_jit(parallel=True)
+def _kernel_parallel(order, alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status,
+                     e_err):
     n = order.size
     nblocks = (n + _BLOCK - 1) // _BLOCK
     for b in nb.prange(nblocks):
         _run_range(b * _BLOCK, min(n, (b + 1) * _BLOCK), order, alpha, beta, gamma, gtilde,
-                   steps, rest_tol, max_steps, e, t_f, u_max, n_steps, status)
+                   s, e, t_f, u_max, n_steps, status, e_err)
 
 
-@cached_njit()
-def _kernel_serial(order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps,
-                   e, t_f, u_max, n_steps, status):
-    _run_range(0, order.size, order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps,
-               e, t_f, u_max, n_steps, status)
+@cached_jit()
+def _kernel_serial(order, alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status,
+                   e_err):
+    _run_range(0, order.size, order, alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps,
+               status, e_err)
 
 
-def integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, parallel=None):
+def integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, refine=True,
+                     parallel=None):
     """Run the integrator over flat float64 arrays.
 
     Returns
@@ -386,7 +192,8 @@ def integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, par
     dict of str -> ndarray
         One flat array per field of :func:`sweep.registry.kernel_fields`, in its dtype.
 
-    ``parallel=None`` picks the parallel kernel when :func:`parallel_allowed`.
+    ``parallel=None`` picks the parallel kernel when :func:`parallel_allowed`; ``refine``
+    checks and refines points whose error indicator exceeds :data:`REFINE_TARGET`.
     """
     n = alpha.size
     out = {f.name: np.empty(n, dtype=f.dtype) for f in kernel_fields()}
@@ -399,14 +206,16 @@ def integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, par
     else:
         order = np.arange(n)
         kernel = _kernel_serial
-    kernel(order, alpha, beta, gamma, gtilde, float(steps), float(rest_tol), int(max_steps),
-           out["e"], out["t_f"], out["u_max"], out["n_steps"], out["status"])
+    s = Settings(float(steps), float(rest_tol), int(max_steps), REFINE_TARGET if refine else 0.0)
+    kernel(order, alpha, beta, gamma, gtilde, s, out["e"], out["t_f"], out["u_max"],
+           out["n_steps"], out["status"], out["e_err"])
     return out
 
 
 def numeric_cor(alpha, beta, gamma, gtilde, steps=DEFAULT_STEPS, rest_tol=DEFAULT_REST_TOL,
-                max_steps=DEFAULT_MAX_STEPS, parallel=None):
+                max_steps=DEFAULT_MAX_STEPS, refine=True, parallel=None):
     """The ``"numeric"`` method's kernel (:data:`sweep.registry.METHODS`): ``(e, status)``
     over flat float64 arrays of equal length."""
-    out = integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, parallel)
+    out = integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, refine,
+                           parallel)
     return out["e"], out["status"]

@@ -13,25 +13,28 @@ Owns: the Runge-Kutta step and the dense output. May import: tableau, contact.
 """
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 
+from sweep.kernels._jit import jit
 from sweep.kernels.contact import rhs
 from sweep.kernels.tableau import DORMAND_PRINCE_54
 
-__all__ = ["rk_step", "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
+__all__ = ["rk_step", "local_error", "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
 
 _T = DORMAND_PRINCE_54
 _A = np.ascontiguousarray(_T.A)
 _B = np.ascontiguousarray(_T.B)
 _P = np.ascontiguousarray(_T.P)
+_E = np.ascontiguousarray(_T.E)
 N_STAGES = _A.shape[0]
 N_DENSE = _P.shape[1]
 
 
-@nb.njit
-def rk_step(u, w, r, h, K, c):
-    """Advance ``(u, w, r)`` by one step ``h`` of the contact law ``c`` (a ``Law``).
+@jit()
+def rk_step(u, w, h, K, c):
+    """Advance ``(u, w)`` by one step ``h`` of the contact law ``c`` (a ``Law``); returns
+    ``(u_new, w_new, dr)`` with ``dr`` the step's increment of the dissipation integral r
+    (returned alone so that the caller can sum it with compensation).
 
     ``K[0]`` must hold ``f(u, w)`` on entry (first-same-as-last); on exit ``K`` holds all
     stages, ``K[-1] = f(u_new, w_new)`` for the FSAL tableau.
@@ -57,10 +60,25 @@ def rk_step(u, w, r, h, K, c):
         du += b * K[j, 0]
         dw += b * K[j, 1]
         dq += b * K[j, 2]
-    return u + h * du, w + h * dw, r + h * dq
+    return u + h * du, w + h * dw, h * dq
 
 
-@nb.njit
+@jit(inline="always")
+def local_error(K, h):
+    """Local error estimate ``h sum_i E_i K_i`` of the step just taken (all stages in ``K``):
+    the difference between the propagated and the embedded solution, per component."""
+    eu = 0.0
+    ew = 0.0
+    eq = 0.0
+    for j in range(N_STAGES):
+        d = _E[j]
+        eu += d * K[j, 0]
+        ew += d * K[j, 1]
+        eq += d * K[j, 2]
+    return h * eu, h * ew, h * eq
+
+
+@jit()
 def dense_coefficients(K, h, Q):
     """Fill ``Q[c, j] = h * sum_i K[i, c] P[i, j]`` for c = u, w (the events need no q)."""
     for c in range(2):
@@ -71,7 +89,7 @@ def dense_coefficients(K, h, Q):
             Q[c, j] = h * s
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def dense_eval(u0, w0, Q, theta):
     """State at fraction ``theta`` of the step: ``y0 + sum_j Q[:, j] theta^(j+1)``."""
     u = 0.0

@@ -39,8 +39,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numba as nb
-
+from sweep.kernels._jit import jit
 from sweep.kernels.contact import damping_rate, elastic_frequency, umax_undamped, well_depth
 
 __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "MAX_DEPTH_FACTOR", "base_step",
@@ -55,7 +54,7 @@ GRADE_FIRST = 0.01
 GRADE_STEPS = 96.0
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def grading(steps):
     """``(rho, first)`` for a resolution: both proportional to the base step.
 
@@ -71,39 +70,39 @@ def grading(steps):
 MAX_DEPTH_FACTOR = 16.0
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def _depth_factor(alpha, gtilde):
     return min((1.0 + 2.0 * well_depth(alpha, gtilde)) ** 0.2, MAX_DEPTH_FACTOR)
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def base_step(alpha, gtilde, steps):
     """Base step ``h = pi / (steps * omega_M * D)`` (module docstring)."""
     um = umax_undamped(alpha, gtilde)
     return math.pi / (steps * elastic_frequency(alpha, um) * _depth_factor(alpha, gtilde))
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def damping_limited(alpha, beta, gamma, gtilde):
     """Whether the damping cap can bind: damping rate at u_M above ``omega_M D``."""
     um = umax_undamped(alpha, gtilde)
     return damping_rate(um, beta, gamma) > elastic_frequency(alpha, um) * _depth_factor(alpha, gtilde)
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def damping_step(u, beta, gamma, steps):
     """Cap ``pi / (steps * gamma beta u^(beta-1))`` (inf where the rate vanishes)."""
     rate = damping_rate(u, beta, gamma)
     return math.pi / (steps * rate) if rate > 0.0 else math.inf
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def needs_grading(alpha, beta):
     """True unless both exponents are integers (then u_+^p is a polynomial for u >= 0)."""
     return alpha != math.floor(alpha) or beta != math.floor(beta)
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def graded_step(u, v, h, rho, s_min):
     """Step for state ``(u, v)``: ``h`` away from u = 0, ``rho u/|v|`` (>= s_min) near it."""
     av = abs(v)
@@ -124,7 +123,7 @@ class StepPolicy(NamedTuple):
     capped: bool      # the damping cap can bind
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def policy(c, steps):
     """The :class:`StepPolicy` of the point with contact law ``c`` at resolution ``steps``."""
     h = base_step(c.alpha, c.gtilde, steps)
@@ -133,7 +132,7 @@ def policy(c, steps):
                       damping_limited(c.alpha, c.beta, c.gamma, c.gtilde))
 
 
-@nb.njit(inline="always")
+@jit(inline="always")
 def first_guess(u, v, p, c):
     """Step from state (u, v) before the damping cap is judged at the step's end."""
     s = graded_step(u, v, p.h, p.rho, p.s_min) if p.graded else p.h

@@ -205,13 +205,13 @@ def _reference(a, b, gamma, gtilde, ref_steps, progress):
     """The integrator at ``ref_steps`` (undecided points NaN) and its self-check."""
     log_progress(progress, f"reference: integrator at steps = {ref_steps:g} on "
                            f"{gamma.size} points")
-    t_ref, _, r_ref = _best_time(lambda: sweep.integrate(a, b, gamma, gtilde, steps=ref_steps),
+    t_ref, _, r_ref = _best_time(lambda: sweep.integrate(a, b, gamma, gtilde, steps=ref_steps, refine=False),
                                  1)
     ref = np.asarray(r_ref.e, dtype=float)
     undecided = ~np.isin(r_ref.status, (sweep.Status.OK, sweep.Status.STUCK,
                                         sweep.Status.AT_REST))
     ref[undecided] = np.nan
-    half = sweep.integrate(a, b, gamma, gtilde, steps=ref_steps / 2).e
+    half = sweep.integrate(a, b, gamma, gtilde, steps=ref_steps / 2, refine=False).e
     self_diff = _err_stats(np.abs(half - ref))
     return ref, {"steps": ref_steps, "seconds": t_ref, "undecided": int(undecided.sum()),
                  "half_steps_max_diff": self_diff["max"],
@@ -248,7 +248,7 @@ def _integrator_rows(bench, steps_list, repeat, nthreads, progress):
     for _ in range(max(1, repeat)):
         for s in steps_list:
             wall, cpu, results[s] = _timed(
-                lambda: sweep.integrate(a, b, gamma, gtilde, steps=s))  # noqa: B023
+                lambda: sweep.integrate(a, b, gamma, gtilde, steps=s, refine=False))  # noqa: B023
             best[s], best_cpu[s] = min(best[s], wall), min(best_cpu[s], cpu)
     rows = []
     for s in steps_list:

@@ -123,7 +123,7 @@ def compute_chunk(plan: ComputePlan, alpha: np.ndarray, beta: np.ndarray, gamma:
     for name in plan.variables:
         if name == "e_numeric":
             value = res.e
-        elif name.startswith("e_"):
+        elif name.startswith("e_") and name[2:] in approx:
             value = approx[name[2:]]
         elif name.startswith("error_"):
             # The integration ran once above; every error field shares it.

@@ -1,0 +1,313 @@
+"""The march: a fixed-step Runge-Kutta integration of (4) through the phases of Algorithm 1.
+
+Per point (a :class:`~sweep.kernels.contact.Law`) the bead starts at ``u = 0``, ``w = 1``
+and is marched with the step policy of :mod:`sweep.kernels.stepsize` (graded near u = 0).
+Phases (report, Sec. 3 and Algorithm 1):
+
+1. until ``v = 0`` crossing downward -- maximum compression ``u_max``;
+2. until ``u = u-bar`` crossing downward (with ``g~ = 0``, ``u-bar = 0`` and this is the
+   detachment itself);
+3. until ``u v = 0``: ``u = 0`` (the bead leaves) or ``v = 0`` with ``u > 0`` (a trough).
+
+Each event is bracketed by a sign test at the step's ends, located on the step's interpolant
+(:mod:`sweep.kernels.events`) and refined with full Runge-Kutta steps from the step's start
+(Newton on the re-stepped state), so located times and states carry the method's own
+accuracy. Grazing (u dipping below 0 inside one step and coming back) is caught in phase 3
+through the velocity's sign change: the minimum of u at ``v = 0`` tells a trough from a
+detachment.
+
+Two more stopping rules keep every point bounded: the report's rest criterion
+``max(|u - u-bar|, |v|) < rest_tol`` (Sec. 3), and the energy rule: the dissipated energy q
+(carried along, see :func:`sweep.kernels.contact.rhs`) exceeds the initial 1/2, so that the
+energy ``H = 1/2 - q`` is below the floor's level and the bead can never leave. The energy
+rule applies from phase 2 on, and in phase 1 only when the linearisation about u-bar is
+overdamped (``xi >= 1``), where phase 1 may never end (``u_max`` is then NaN).
+
+The march reports only *where* it ended (:class:`Ending`: exit, trough, energy spent, rest,
+budget, with the state and q there); :mod:`sweep.kernels.outcome` decides what that means
+for e.
+
+Owns: stepping through the phases and locating the events. May import: contact, stepper,
+stepsize, events.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from sweep.kernels._jit import jit
+from sweep.kernels.contact import (accel, damping_ratio, dissipated, equilibrium, make_law, rhs,
+                                   ppow, velocity)
+from sweep.kernels.events import ON_U, ON_V, locate
+from sweep.kernels.stepper import N_DENSE, N_STAGES, dense_coefficients, local_error, rk_step
+from sweep.kernels.stepsize import damping_step, first_guess, policy
+
+__all__ = ["Ending", "march", "march_point", "EXIT", "TROUGH", "SPENT", "REST", "BUDGET",
+           "scratch"]
+
+# Relative roundoff in the dissipated energy q (a sum of positive terms): the energy rule
+# waits until q exceeds the initial energy 1/2 by more than it.
+_ENERGY_ROUNDOFF = 1e-12
+
+
+@jit(inline="always")
+def scratch():
+    """Work arrays of one thread: stages ``K``, re-step stages ``K2``, dense output ``Q``."""
+    return np.empty((N_STAGES, 3)), np.empty((N_STAGES, 3)), np.empty((2, N_DENSE))
+
+
+@jit(inline="always")
+def _set_first_stage(K, fu, fw, fr):
+    K[0, 0] = fu
+    K[0, 1] = fw
+    K[0, 2] = fr
+
+
+@jit(inline="always")
+def _restep(u, w, r, d, K, K2, c):
+    """State at time ``d`` after the step's start, by one Runge-Kutta step of size ``d``."""
+    _set_first_stage(K2, K[0, 0], K[0, 1], K[0, 2])
+    u1, w1, dr = rk_step(u, w, d, K2, c)
+    return u1, w1, r + dr
+
+
+@jit()
+def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, c):
+    """Refine the detachment u = 0 inside ``[th_lo, th_hi]`` of the step from ``(u, w, r)``.
+
+    Returns ``(time from the step's start, dissipated energy q, velocity, re-steps used)``
+    at the detachment.
+    """
+    th = locate(ON_U, 0.0, u, w, Q, c, th_lo, th_hi)
+    lo = th_lo * s
+    hi = th_hi * s
+    d = th * s
+    used = 0
+    ue = 0.0
+    ve = -1.0
+    r_e = r
+    for _ in range(12):
+        ue, we, r_e = _restep(u, w, r, d, K, K2, c)
+        used += 1
+        ve = velocity(ue, we, c)
+        if ue > 0.0:
+            lo = d
+        else:
+            hi = d
+        dn = d - ue / ve if ve < 0.0 else 0.5 * (lo + hi)
+        if not (lo <= dn <= hi):
+            dn = 0.5 * (lo + hi)
+        if abs(dn - d) <= 2e-16 * d or hi - lo <= 2e-16 * d:
+            d = dn
+            break
+        d = dn
+    # The last Newton correction is O(u_e), within roundoff; apply it to first order.
+    delta = -ue / ve if ve < 0.0 else 0.0
+    v_f = ve + delta * (c.gtilde - ppow(ue, c.alpha, c.ka))
+    q_f = dissipated(ue, ve, r_e, c) + delta * c.gamma * c.beta * ppow(ue, c.beta - 1.0, c.kd) * ve * ve
+    return d, q_f, v_f, used
+
+
+@jit(inline="always")
+def _stationary_u(u, v, c, upward):
+    """u at the vertex of the local parabola through (u, v): removes a residual v at an
+    extremum of u (``upward``: a minimum, where the acceleration is positive)."""
+    acc = accel(u, v, c)
+    if (acc > 0.0) if upward else (acc < 0.0):
+        return u - 0.5 * v * v / acc
+    return u
+
+
+@jit(inline="always")
+def _stationary_u(u, v, c, upward):
+    """u at the vertex of the local parabola through (u, v): removes a residual v at an
+    extremum of u (``upward``: a minimum, where the acceleration is positive)."""
+    acc = accel(u, v, c)
+    if (acc > 0.0) if upward else (acc < 0.0):
+        return u - 0.5 * v * v / acc
+    return u
+
+
+# --------------------------------------------------------------------------- one step
+
+@jit(inline="always")
+def _advance(u, w, v, p, K, c, n, max_steps):
+    """One step of the march: size from the policy, then the damping cap judged at the
+    step's end (the step retaken, smaller, while it is exceeded). Returns the new (u, w),
+    the increment of r, the step and the steps counter."""
+    s = first_guess(u, v, p, c)
+    fu0 = K[0, 0]
+    fw0 = K[0, 1]
+    fr0 = K[0, 2]
+    u1, w1, dr = rk_step(u, w, s, K, c)
+    n += 1
+    if p.capped:
+        # A load can drive the bead deep into the damper within one step: judge the cap
+        # at the step's end too and retake the step if it was exceeded (twice: slack
+        # against retaking steps for nothing).
+        s_end = damping_step(u1, c.beta, c.gamma, p.steps)
+        while not (s <= 2.0 * s_end and math.isfinite(u1) and math.isfinite(w1)) and n < max_steps:
+            s = s_end if s_end < 0.5 * s else 0.5 * s
+            _set_first_stage(K, fu0, fw0, fr0)
+            u1, w1, dr = rk_step(u, w, s, K, c)
+            n += 1
+            s_end = damping_step(u1, c.beta, c.gamma, p.steps)
+    return u1, w1, dr, s, n
+
+
+# --------------------------------------------------------------------------- phases
+
+@jit(inline="always")
+def _may_have_event(phase, u1, v1, ubar):
+    """An event of Algorithm 1 may lie inside the step that ended at (u1, v1)."""
+    if phase == 1:
+        return v1 <= 0.0
+    if phase == 2:
+        return u1 < ubar or (ubar == 0.0 and u1 <= 0.0)
+    return u1 <= 0.0 or v1 >= 0.0
+
+
+@jit(inline="always")
+def _compression_end(u, w, r, s, Q, K, K2, c):
+    """Phase 1 ends inside the step: maximum compression (v = 0). Returns its fraction of
+    the step and ``u_max``."""
+    th = locate(ON_V, 0.0, u, w, Q, c, 0.0, 1.0)
+    um, wm, _ = _restep(u, w, r, th * s, K, K2, c)
+    return th, _stationary_u(um, velocity(um, wm, c), c, False)
+
+
+@jit(inline="always")
+def _trough(u, w, r, s, th0, Q, K, K2, c):
+    """Phase 3, v = 0 inside the step: the bead's lowest point after the swing. Returns its
+    fraction of the step, the minimum of u there (> 0: the bead sticks; <= 0: it dipped
+    below the floor inside the step -- grazing -- and left first) and the dissipated energy."""
+    th = locate(ON_V, 0.0, u, w, Q, c, th0, 1.0)
+    us, ws, rs = _restep(u, w, r, th * s, K, K2, c)
+    vs = velocity(us, ws, c)
+    return th, _stationary_u(us, vs, c, True), dissipated(us, vs, rs, c)
+
+
+# --------------------------------------------------------------------------- stopping rules
+
+@jit(inline="always")
+def _at_rest(u, v, ubar, rest_tol):
+    """Rest criterion of the report (Sec. 3): ``max(|u - u-bar|, |v|) < rest_tol``."""
+    return max(abs(u - ubar), abs(v)) < rest_tol
+
+
+@jit(inline="always")
+def _cannot_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
+    """Energy rule: the dissipated energy exceeds the initial 1/2 (beyond roundoff), so the
+    bead can never reach u = 0 again (H = 1/2 - q never increases and is e^2/2 >= 0 at a
+    detachment). q = gamma v u^beta + r, with gamma u^beta = w - v read off the state
+    (no power per step) and confirmed from the power where the cheap form says yes.
+    Applied from phase 2 on, and in phase 1 only when the linearisation is overdamped."""
+    if not (c.gtilde > 0.0 and (phase > 1 or energy_in_phase1) and v * (w - v) + r > q_stuck):
+        return False
+    # w - v cancels in deep wells (both ~ the swing speed): confirm with the power itself.
+    return dissipated(u, v, r, c) > q_stuck
+
+
+#: How a march ended (the geometry); :func:`sweep.kernels.outcome.decide` reads it.
+EXIT, TROUGH, SPENT, REST, BUDGET = range(5)
+
+
+class Ending(NamedTuple):
+    """Where and how the march of one point stopped.
+
+    ``kind``: EXIT (u = 0 reached), TROUGH (v = 0 with u > 0 after the swing), SPENT (the
+    dissipated energy exceeded the initial 1/2), REST (rest criterion), BUDGET (step
+    budget). ``t``, ``u``, ``v``, ``q``: time, position, velocity and dissipated energy
+    there; ``u_max``: maximum compression (NaN if not reached); ``n``: steps taken;
+    ``lw``, ``lq``: sums of the embedded local error estimates of w and of the dissipation
+    integral over the steps (:func:`sweep.kernels.stepper.local_error`), indicators of the
+    global error (:mod:`sweep.kernels.outcome`).
+    """
+
+    kind: int
+    t: float
+    u: float
+    v: float
+    q: float
+    u_max: float
+    n: int
+    lw: float
+    lq: float
+
+
+@jit()
+def march(c, p, rest_tol, max_steps, K, K2, Q):
+    """The three phases of Algorithm 1 for the law ``c`` with the step policy ``p``: the
+    geometry of the impact, up to its :class:`Ending`."""
+    ubar = equilibrium(c.alpha, c.gtilde)
+    energy_in_phase1 = c.gtilde > 0.0 and damping_ratio(c.alpha, c.beta, c.gamma, c.gtilde) >= 1.0
+    q_stuck = 0.5 * (1.0 + _ENERGY_ROUNDOFF)
+    t = u = r = rc = 0.0
+    w = v = 1.0
+    fu, fw, fr = rhs(u, w, c)
+    _set_first_stage(K, fu, fw, fr)
+    phase = 1
+    u_max = np.nan
+    n = 0
+    lw = lq = 0.0
+    while True:
+        if n >= max_steps:
+            return Ending(BUDGET, t, u, v, dissipated(u, v, r, c), u_max, n, lw, lq)
+        u1, w1, dr, s, n = _advance(u, w, v, p, K, c, n, max_steps)
+        # Compensated (Kahan) sum: q's rounding stays at eps instead of growing with the
+        # number of steps, which matters where e = sqrt(1 - 2 q) is small.
+        y = dr - rc
+        r1 = r + y
+        rc_next = (r1 - r) - y
+        # The last (FSAL) stage is f at the step's end: its u' is the velocity v1, no power.
+        v1 = K[N_STAGES - 1, 0]
+        _, ew, eq = local_error(K, s)
+        lw += abs(ew)
+        lq += abs(eq)
+        if _may_have_event(phase, u1, v1, ubar):
+            dense_coefficients(K, s, Q)
+            th0 = 0.0
+            if phase == 1 and v1 <= 0.0:
+                th0, u_max = _compression_end(u, w, r, s, Q, K, K2, c)
+                n += 1
+                phase = 2
+            if phase == 2 and ubar > 0.0 and u1 < ubar:
+                th0 = locate(ON_U, ubar, u, w, Q, c, th0, 1.0)
+                phase = 3
+            # With g~ = 0 (u-bar = 0) the return to u-bar in phase 2 is the detachment itself.
+            exiting = (phase == 3 or (phase == 2 and ubar == 0.0)) and u1 <= 0.0
+            th_exit = 1.0
+            if not exiting and phase == 3 and v1 >= 0.0:
+                th_exit, u_min, q_min = _trough(u, w, r, s, th0, Q, K, K2, c)
+                n += 1
+                if u_min > 0.0:
+                    return Ending(TROUGH, t + th_exit * s, u_min, 0.0, q_min, u_max, n, lw, lq)
+                exiting = True
+            if exiting:
+                d, q_f, v_f, used = _detach(u, w, r, s, th0, th_exit, Q, K, K2, c)
+                return Ending(EXIT, t + d, 0.0, v_f, q_f, u_max, n + used, lw, lq)
+        t += s
+        u = u1
+        w = w1
+        r = r1
+        rc = rc_next
+        v = v1
+        _set_first_stage(K, K[N_STAGES - 1, 0], K[N_STAGES - 1, 1], K[N_STAGES - 1, 2])
+        if _at_rest(u, v, ubar, rest_tol):
+            if phase == 1:
+                u_max = max(u, ubar)
+            return Ending(REST, t, u, v, dissipated(u, v, r, c), u_max, n, lw, lq)
+        if _cannot_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
+            return Ending(SPENT, t, u, v, dissipated(u, v, r, c), u_max, n, lw, lq)
+
+
+@jit()
+def march_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps):
+    """The :class:`Ending` of one point's march (for diagnostics and tests)."""
+    K, K2, Q = scratch()
+    c = make_law(alpha, beta, gamma, gtilde)
+    return march(c, policy(c, steps), rest_tol, max_steps, K, K2, Q)
+
+

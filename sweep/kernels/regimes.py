@@ -1,0 +1,117 @@
+"""Outcomes decided without marching: exact solutions and asymptotic regimes.
+
+Each function takes the point's :class:`~sweep.kernels.contact.Law` and returns
+``(decided, e, t_f, u_max, status, e_err)``; ``decided`` False leaves the point to the
+integrator.
+
+* :func:`undamped` -- gamma = 0: the energy is conserved, ``e = 1`` exactly at any load;
+  ``u_max = u_M(g~)`` of (13) and ``T_f = 2 Q_{alpha,1}(g~)`` (Prop. 2's Q with beta = 1 is
+  half the undamped contact time).
+* :func:`linear_overdamped` -- alpha = beta = 1, g~ = 0, gamma >= 2: the closed form of
+  SPEC section 4 creeps back exponentially and never leaves (``t_f = inf``).
+* :func:`deep_well` -- very large loads. With ``u = u-bar y`` and ``tau = T s``,
+  ``T = g~^((1-alpha)/(2 alpha))``, the problem becomes ``y'' + gamma' d(y^beta)/ds + y^alpha
+  = 1`` with ``gamma' = gamma g~^((2 beta - alpha - 1)/(2 alpha))`` and the initial speed
+  ``eps = g~^(-(alpha+1)/(2 alpha))``: the bead starts from rest, as far as double precision
+  can tell, and swings through a well of depth ~1 that it must climb out of with the
+  kinetic energy eps^2 e^2 / 2. Along the swing the damper dissipates ``q = gamma' J``,
+  ``J = int beta y^(beta-1) y'^2 ds`` taken on the undamped swing to first order, which is
+  the report's large-load law (23): ``e^2 = 1 - 2 gamma C g~^r``. The neglected terms are
+  relative O(gamma') and O(eps^2) in the dissipated fraction; where the bead rebounds at
+  all ``gamma' < eps^2 / (2 J)``, so both are O(eps^2) and the law is exact to
+  ``|delta e^2| <~ eps^2`` (measured: 0.5 eps^2 on the linear law's closed form). It is
+  used where ``eps^2 < DEEP_WELL_EPS2``, beyond the depth where the march can resolve the
+  bead's energy at the rim against the depth of the well in double precision.
+
+Owns: those decisions. May import: contact, special, registry.
+"""
+from __future__ import annotations
+
+import math
+
+from sweep.kernels._jit import jit
+from sweep.kernels.contact import umax_undamped
+from sweep.kernels.special import beta_fn, iq_quadrature, large_gtilde_constants
+from sweep.registry import Status
+
+__all__ = ["undamped", "linear_overdamped", "deep_well", "undamped_duration",
+           "DEEP_WELL_EPS2"]
+
+#: eps^2 = g~^(-(alpha+1)/alpha) below which :func:`deep_well` decides a point: there the
+#: law's error (~eps^2 in e^2) is below 1e-14, while the march's resolution of the rim energy
+#: is ~1e-16 of the well depth 1/eps^2.
+DEEP_WELL_EPS2 = 1e-14
+
+_OK = int(Status.OK)
+_STUCK = int(Status.STUCK)
+_AT_REST = int(Status.AT_REST)
+_NAN = math.nan
+
+
+@jit(inline="always")
+def _none():
+    return False, _NAN, _NAN, _NAN, _OK, _NAN
+
+
+@jit()
+def undamped_duration(alpha, gtilde):
+    """Contact time ``T_f = 2 int_0^{u_M} du / sqrt(1 + 2 (g~ u - u^(a+1)/(a+1)))`` [1] of the
+    undamped impact: twice Q of Prop. 2 with beta = 1 (quadrature, ~1e-15), or, where theta
+    of (43) underflows (g~ >~ 1e149), its deep-well limit
+    ``sqrt(2 u-bar / g~) y_M^(1/2) B(1/(2a), 1/2) / a``, ``y_M = (a+1)^(1/a)``, exact to
+    O(eps^2) and evaluated in logarithms so that it does not overflow."""
+    _, q = iq_quadrature(alpha, 1.0, gtilde)
+    if math.isfinite(q):
+        return 2.0 * q
+    log_scale = 0.5 * (math.log(2.0) + (1.0 / alpha - 1.0) * math.log(gtilde))
+    return (math.exp(log_scale + 0.5 * math.log(alpha + 1.0) / alpha)
+            * beta_fn(0.5 / alpha, 0.5) / alpha)
+
+
+@jit()
+def undamped(c):
+    """gamma = 0: no dissipation, so ``e = 1`` exactly (energy balance) at any load."""
+    if c.gamma != 0.0:
+        return _none()
+    return True, 1.0, undamped_duration(c.alpha, c.gtilde), umax_undamped(c.alpha, c.gtilde), \
+        _OK, 0.0
+
+
+@jit()
+def linear_overdamped(c):
+    """alpha = beta = 1, g~ = 0, gamma >= 2: ``u = (exp(l1 t) - exp(l2 t)) / (l1 - l2)`` with
+    ``l1,2 = -gamma/2 +- sqrt(gamma^2/4 - 1)`` stays positive for ever (no rebound, e = 0);
+    ``u_max`` where ``l1 exp(l1 t) = l2 exp(l2 t)``, ``t exp(-t)`` (maximum 1/e) at gamma = 2.
+    ``l1 = 1 / l2`` avoids the cancellation of ``-gamma/2 + sqrt(...)`` at large gamma."""
+    if not (c.alpha == 1.0 and c.beta == 1.0 and c.gtilde == 0.0 and c.gamma >= 2.0):
+        return _none()
+    r = math.sqrt(max(0.25 * c.gamma * c.gamma - 1.0, 0.0))
+    if r == 0.0:
+        return True, 0.0, math.inf, math.exp(-1.0), _AT_REST, 0.0
+    l2 = -0.5 * c.gamma - r
+    l1 = 1.0 / l2
+    t = math.log(l2 / l1) / (l1 - l2)
+    u_max = (math.exp(l1 * t) - math.exp(l2 * t)) / (l1 - l2)
+    return True, 0.0, math.inf, u_max, _AT_REST, 0.0
+
+
+@jit()
+def deep_well(c):
+    """Very large loads (module docstring): the large-load law (23) with its error bound."""
+    if not (c.gtilde > 0.0):
+        return _none()
+    log_g = math.log(c.gtilde)
+    eps2 = math.exp(-(c.alpha + 1.0) / c.alpha * log_g)
+    if not (eps2 < DEEP_WELL_EPS2):
+        return _none()
+    k, r = large_gtilde_constants(c.alpha, c.beta)
+    # 2 gamma C g~^r in logarithms: each factor may overflow alone.
+    log_loss = math.log(2.0 * k) + math.log(c.gamma) + r * log_g
+    t_f = undamped_duration(c.alpha, c.gtilde)
+    u_max = umax_undamped(c.alpha, c.gtilde)
+    if log_loss >= 0.0:
+        return True, 0.0, t_f, u_max, _STUCK, 0.0
+    e2 = -math.expm1(log_loss)
+    e = math.sqrt(e2)
+    # |delta e^2| <~ eps^2 (module docstring): delta e <~ eps^2 / e, and never above eps.
+    return True, e, t_f, u_max, _OK, min(eps2 / e, math.sqrt(eps2))
