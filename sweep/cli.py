@@ -49,6 +49,16 @@ def _positive_int(text):
     return value
 
 
+def _positive_float(text):
+    try:
+        value = float(text)
+    except ValueError:
+        value = 0.0
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}")
+    return value
+
+
 _SIZE_UNITS = {"": 1, "k": 10 ** 3, "m": 10 ** 6, "g": 10 ** 9, "t": 10 ** 12, "p": 10 ** 15}
 
 
@@ -96,6 +106,8 @@ def _limits(args):
 # --------------------------------------------------------------------------- run, info, validate
 
 def _add_run_command(sub):
+    from sweep.sweeps import limits
+
     p = sub.add_parser("run", help="run a sweep configuration and write a netCDF dataset",
                        description="Run the sweep described by CONFIG. An interrupted run "
                                    "resumes from its finished chunks when the same command "
@@ -115,8 +127,9 @@ def _add_run_command(sub):
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="Dask scheduler address (tcp://host:port): run the chunks on that "
                         "cluster instead of locally")
-    p.add_argument("--scheduler-timeout", type=float, metavar="S", default=None,
-                   help="seconds to wait for the scheduler to answer (default 10)")
+    p.add_argument("--scheduler-timeout", type=_positive_float, metavar="S", default=None,
+                   help="seconds to wait for the scheduler to answer (default "
+                        f"{limits.SCHEDULER_TIMEOUT_S:g})")
     _add_debug(p)
     p.set_defaults(func=_cmd_run)
 
@@ -142,34 +155,13 @@ def _add_info_and_validate_commands(sub):
     p.set_defaults(func=_cmd_validate)
 
 
-def _preflight_of(args, cfg, d):
-    from sweep.sweeps import preflight, runner
-
-    output = args.output or runner.default_output(cfg)
-    plan = runner.ComputePlan.from_config(cfg)
-    layout = runner._layout(d)
-    return preflight.preflight(layout, plan.variables, args.chunk_size or cfg.chunk_size,
-                               output), plan, output
-
-
-def _estimate_line(args, cfg, d, plan, output, n_points):
-    import functools
-
-    from sweep.sweeps import preflight, runner
-
-    rate, source = preflight.estimate_rate(
-        d, functools.partial(runner.compute_chunk, plan), output, cfg.sha256)
-    return (f"  estimated time: {preflight.format_duration(n_points / rate)} at "
-            f"{rate:,.0f} points/s ({source})")
-
-
 def _cmd_validate(args):
-    from sweep.sweeps import config, design
+    from sweep.sweeps import config, design, preflight, runner
 
     cfg = config.load(args.config)
     d = design.build(cfg.design)
     out = cfg.outputs
-    pre, plan, output = _preflight_of(args, cfg, d)
+    pre = runner.preflight(cfg, args.output, args.chunk_size)
     print(f"{args.config}: valid")
     print(f"  {d.describe()}")
     print(f"  stored variables: {', '.join(out.variables)}")
@@ -178,7 +170,9 @@ def _cmd_validate(args):
     for line in pre.lines():
         print(f"  {line}")
     if not args.no_estimate:
-        print(_estimate_line(args, cfg, d, plan, output, pre.n_points))
+        rate, source = runner.estimate_rate(cfg, args.output)
+        print(f"  estimated time: {preflight.format_duration(pre.n_points / rate)} at "
+              f"{rate:,.0f} points/s ({source})")
     refusal = pre.refusal(_limits(args)) or pre.disk_refusal()
     if refusal is not None and not args.force:
         print(f"sweep validate: error: `sweep run` would refuse {args.config}: {refusal}",
@@ -192,9 +186,12 @@ def _cmd_info(args):
 
     try:
         print(store.summarize(args.path))
-    except (OSError, ValueError) as exc:
-        cause = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
-        print(f"sweep info: error: cannot read {args.path}: {cause}", file=sys.stderr)
+    except OSError as exc:
+        print(f"sweep info: error: cannot read {args.path}: {exc.strerror or exc}",
+              file=sys.stderr)
+        return 1
+    except ValueError as exc:  # a netCDF file, but not a sweep output
+        print(f"sweep info: error: {exc}", file=sys.stderr)
         return 1
     return 0
 

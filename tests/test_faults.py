@@ -324,8 +324,7 @@ def test_the_chunk_list_is_lazy():
 def test_preflight_sizes_and_limits():
     cfg = config.loads(GRID)
     d = design.build(cfg.design)
-    plan = runner.ComputePlan.from_config(cfg)
-    pre = preflight.preflight(runner._layout(d), plan.variables, 10, "/tmp/x.nc")
+    pre = runner.preflight(cfg, "/tmp/x.nc")
     assert (pre.n_points, pre.n_chunks, pre.value_bytes) == (72, 8, 8 + 8 + 1)
     assert pre.output_bytes == 72 * 17 + 8 * (1 + 2 + 9 + 4)
     assert pre.disk_needed == pre.output_bytes + 72 * 17 + 8 * limits.CHUNK_FILE_OVERHEAD

@@ -140,12 +140,12 @@ class OutputLock:
     def __init__(self, output: str | os.PathLike) -> None:
         self.output = Path(output)
         self.path = lock_path(self.output)
-        self._fd = None
+        self._fh = None
 
     @property
     def held(self) -> bool:
         """True while this object holds the lock."""
-        return self._fd is not None
+        return self._fh is not None
 
     def acquire(self) -> OutputLock:
         """Take the lock, or refuse at once (never waits).
@@ -163,7 +163,7 @@ class OutputLock:
             The lock file cannot be created (read-only file system, permissions, name too
             long); ``filename`` is the lock file.
         """
-        if self._fd is not None or fcntl is None:
+        if self._fh is not None or fcntl is None:
             return self
         for _ in range(_LOCK_ATTEMPTS):
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
@@ -180,7 +180,7 @@ class OutputLock:
             if self._is_current(fd):
                 # A file object, so that a lock dropped without release() (an exception in
                 # a caller) is still closed, and released, when it is collected.
-                self._fd = os.fdopen(fd, "rb+", buffering=0)
+                self._fh = os.fdopen(fd, "rb+", buffering=0)
                 self._record()
                 return self
             # The previous holder removed the file between our open and flock: the lock
@@ -202,14 +202,14 @@ class OutputLock:
                 "argv": sys.argv}
         data = (json.dumps(info) + "\n").encode()
         with contextlib.suppress(OSError):  # the record is informative only
-            os.ftruncate(self._fd.fileno(), 0)
-            os.pwrite(self._fd.fileno(), data, 0)
+            os.ftruncate(self._fh.fileno(), 0)
+            os.pwrite(self._fh.fileno(), data, 0)
 
     def release(self) -> None:
         """Remove the lock file and release the lock (idempotent)."""
-        if self._fd is None:
+        if self._fh is None:
             return
-        fh, self._fd = self._fd, None
+        fh, self._fh = self._fh, None
         try:
             # Unlinked while still held, so nobody can lock this file afterwards and
             # believe it owns the output (see the inode check in acquire).

@@ -22,14 +22,22 @@ Two executors:
 Every chunk's values depend only on its points, and point ``i`` of a design never depends on
 the chunking, so results are identical for any chunk size, thread count or executor.
 
-:func:`run` is a driver that reads as its steps: prepare (load the configuration, build
-the design and the :class:`ComputePlan`), check an existing output, plan the chunks, open
-the partial state, stream the chunks (resumed ones copied, the others computed), finish
-(write the timing attributes, commit atomically) and report.
+:func:`run` is a driver that reads as its steps: prepare (load the configuration, check
+the output path, build the design and the :class:`ComputePlan`), preflight (refuse a design
+above the limits unless forced, before anything is allocated), take the output's lock
+(before touching anything, ``--restart`` included), check an existing output, connect to
+the scheduler, plan the chunks (lazily), check the free disk, open the partial state,
+stream the chunks (saved ones verified and copied, the others computed), finish (write the
+timing attributes, commit atomically with signals held, clean up) and report.
+
+Faults end in :class:`RunError` (or :class:`sweep.store.ResumeError`,
+:class:`sweep.sweeps.config.ConfigError`) with a one-line message; the finished chunks are
+kept and the previous output is only ever replaced by a complete new one.
 
 Floor 4: may import :mod:`sweep.api`, :mod:`sweep.store`, :mod:`sweep.sweeps.config`,
-:mod:`sweep.sweeps.design` and :mod:`sweep._version` (and, lazily, tqdm and Dask); nothing
-of the reports or the command line.
+:mod:`sweep.sweeps.design`, :mod:`sweep.sweeps.limits`, :mod:`sweep.sweeps.preflight` and
+:mod:`sweep._version` (and, lazily, tqdm and Dask); nothing of the reports or the command
+line.
 """
 from __future__ import annotations
 
@@ -39,6 +47,7 @@ import contextlib
 import dataclasses
 import datetime as _dt
 import errno
+import functools
 import hashlib
 import importlib.metadata
 import os
@@ -62,7 +71,7 @@ from sweep.sweeps import limits as _limits
 from sweep.sweeps import preflight as _preflight_mod
 
 __all__ = ["ComputePlan", "compute_chunk", "run", "RunResult", "RunError", "default_output",
-           "source_sha256"]
+           "source_sha256", "preflight", "estimate_rate"]
 
 
 # --------------------------------------------------------------------------- computing
@@ -475,19 +484,58 @@ def _prepare(cfg, output, chunk_size, quiet, log):
     _check_output_path(output)
     if chunk_size is None:
         chunk_size = cfg.chunk_size
-    elif isinstance(chunk_size, bool) or int(chunk_size) != chunk_size or chunk_size < 1:
+    elif isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         raise RunError(f"chunk size must be an integer >= 1, got {chunk_size!r}")
     design = _design.build(cfg.design)
-    return _Job(cfg=cfg, design=design, plan=ComputePlan.from_config(cfg),
-                layout=_layout(design), output=output, chunk_size=int(chunk_size), log=log,
-                result=RunResult(output=output, n_points=design.size))
+    job = _Job(cfg=cfg, design=design, plan=ComputePlan.from_config(cfg),
+               layout=_layout(design), output=output, chunk_size=int(chunk_size), log=log,
+               result=RunResult(output=output, n_points=design.size))
+    job.pre = _preflight_mod.preflight(job.layout, job.plan.variables, job.chunk_size,
+                                       job.output)
+    return job
+
+
+def preflight(cfg: _config.Config | str | Path, output: str | Path | None = None,
+              chunk_size: int | None = None) -> _preflight_mod.Preflight:
+    """What :func:`run` with these arguments would cost; nothing is computed or written.
+
+    Parameters
+    ----------
+    cfg, output, chunk_size
+        As for :func:`run`.
+
+    Returns
+    -------
+    sweep.sweeps.preflight.Preflight
+
+    Raises
+    ------
+    sweep.sweeps.config.ConfigError, RunError
+        As :func:`run` would before starting (configuration, output path, chunk size).
+    """
+    return _prepare(cfg, output, chunk_size, True, None).pre
+
+
+def estimate_rate(cfg: _config.Config | str | Path,
+                  output: str | Path | None = None) -> tuple[float, str]:
+    """Points per second :func:`run` can expect, and where the figure comes from.
+
+    The rate of the last run of this configuration into ``output`` if there is one, else
+    a short calibration (:func:`sweep.sweeps.preflight.calibrate`; the kernels are
+    compiled or loaded first, untimed).
+
+    Returns
+    -------
+    (float, str)
+    """
+    job = _prepare(cfg, output, None, True, None)
+    return _preflight_mod.estimate_rate(job.design, functools.partial(compute_chunk, job.plan),
+                                        job.output, job.cfg.sha256)
 
 
 def _preflight(job, force, limits):
-    """Step 2: size the run from the layout alone; refuse it above the limits unless
-    ``force`` -- before anything is allocated or written."""
-    job.pre = _preflight_mod.preflight(job.layout, job.plan.variables, job.chunk_size,
-                                       job.output)
+    """Step 2: size the run from the layout alone (done by :func:`_prepare`); refuse it
+    above the limits unless ``force`` -- before anything is allocated or written."""
     refusal = job.pre.refusal(limits or _preflight_mod.Limits())
     if refusal is not None:
         if not force:
