@@ -2,15 +2,21 @@
 
 ::
 
-    sweep run CONFIG [-o OUT.nc] [--resume | --restart] [--quiet] [--scheduler ADDR]
+    sweep run CONFIG [-o OUT.nc] [--resume | --restart] [--quiet] [--chunk-size N]
+              [--scheduler ADDR [--scheduler-timeout S]] [--max-points N] [--max-size SIZE]
+              [--force] [--debug]
     sweep info OUT.nc
-    sweep validate CONFIG
+    sweep validate CONFIG [-o OUT.nc] [--chunk-size N] [--max-points N] [--max-size SIZE]
+              [--force] [--no-estimate]
     sweep report accuracy DATASET.nc [--out DIR]
     sweep report paper [--out DIR] [--n-gamma N] [--n-crit N] [--steps S] [--models ...]
     sweep report speed [--out DIR] [--n-points N] [--n-scipy N] [--n-check N] [--model M]
 
-Exit status: 0 success, 1 invalid configuration, refused resume or unreadable dataset, 130
-interrupted (the finished chunks are kept; rerun the same command to resume).
+Exit status: 0 success; 1 an error: invalid configuration, refused resume or preflight,
+output locked by another run, unreadable dataset, a file system or scheduler fault; 2 bad
+arguments; 130 interrupted (the finished chunks are kept; rerun the same command to
+resume). Every error is one line on stderr naming the file, value or address and the
+cause; ``--debug`` (before or after the subcommand) shows the traceback instead.
 
 This module owns every subcommand and all of argparse: each subparser sets ``func``, the
 handler that runs it and returns the exit status. Floor 6 (the top): it may import any
@@ -26,17 +32,90 @@ import sys
 __all__ = ["main", "build_parser", "add_report_commands"]
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, with its errors on one line (the usage is one ``--help`` away)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _positive_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
+
+
+def _positive_float(text):
+    try:
+        value = float(text)
+    except ValueError:
+        value = 0.0
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}")
+    return value
+
+
+_SIZE_UNITS = {"": 1, "k": 10 ** 3, "m": 10 ** 6, "g": 10 ** 9, "t": 10 ** 12, "p": 10 ** 15}
+
+
+def _size(text):
+    """``"50G"``, ``"50GB"``, ``"2e11"`` -> bytes (decimal units)."""
+    t = text.strip().lower().removesuffix("b")
+    unit = t[-1:] if t[-1:] in _SIZE_UNITS and t[-1:] else ""
+    try:
+        value = float(t[:len(t) - len(unit)]) * _SIZE_UNITS[unit]
+    except ValueError:
+        value = -1
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be a size such as 500M or 2T, got {text!r}")
+    return int(value)
+
+
+def _add_debug(p):
+    # SUPPRESS: a subcommand's default must not reset `sweep --debug run ...`.
+    p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                   help="show the traceback of an error instead of a one-line message")
+
+
+def _add_limit_options(p):
+    from sweep.sweeps import limits
+
+    p.add_argument("--chunk-size", type=_positive_int, metavar="N",
+                   help="points per chunk (default: the configuration's run.chunk_size)")
+    p.add_argument("--max-points", type=_positive_int, metavar="N",
+                   default=limits.MAX_POINTS,
+                   help=f"largest design run without --force (default {limits.MAX_POINTS:g})")
+    p.add_argument("--max-size", type=_size, metavar="SIZE", default=limits.MAX_OUTPUT_BYTES,
+                   help="largest output, uncompressed, run without --force (default "
+                        f"{limits.MAX_OUTPUT_BYTES / 1e9:g}G)")
+    p.add_argument("--force", action="store_true",
+                   help="run although the design is above these limits or the free disk "
+                        "looks short")
+
+
+def _limits(args):
+    from sweep.sweeps.preflight import Limits
+
+    return Limits(max_points=args.max_points, max_bytes=args.max_size)
+
+
 # --------------------------------------------------------------------------- run, info, validate
 
 def _add_run_command(sub):
+    from sweep.sweeps import limits
+
     p = sub.add_parser("run", help="run a sweep configuration and write a netCDF dataset",
                        description="Run the sweep described by CONFIG. An interrupted run "
                                    "resumes from its finished chunks when the same command "
                                    "is run again.")
     p.add_argument("config", metavar="CONFIG", help="TOML configuration file")
     p.add_argument("-o", "--output", metavar="OUT.nc",
-                   help="output netCDF file (default: CONFIG's name with .nc, in the "
-                        "current directory)")
+                   help="output netCDF file (.nc, .nc4 or .netcdf; default: CONFIG's name "
+                        "with .nc, in the current directory)")
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--resume", dest="restart", action="store_false", default=False,
                       help="resume from saved chunks if any (default)")
@@ -44,11 +123,14 @@ def _add_run_command(sub):
                       help="discard saved chunks and an existing output, start afresh")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress bar and no messages")
-    p.add_argument("--chunk-size", type=int, metavar="N",
-                   help="points per chunk (default: the configuration's run.chunk_size)")
+    _add_limit_options(p)
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="Dask scheduler address (tcp://host:port): run the chunks on that "
                         "cluster instead of locally")
+    p.add_argument("--scheduler-timeout", type=_positive_float, metavar="S", default=None,
+                   help="seconds to wait for the scheduler to answer (default "
+                        f"{limits.SCHEDULER_TIMEOUT_S:g})")
+    _add_debug(p)
     p.set_defaults(func=_cmd_run)
 
 
@@ -57,23 +139,45 @@ def _add_info_and_validate_commands(sub):
                        description="Print the dimensions, variables with summary "
                                    "statistics, and settings of a sweep output.")
     p.add_argument("path", metavar="OUT.nc")
+    _add_debug(p)
     p.set_defaults(func=_cmd_info)
-    p = sub.add_parser("validate", help="check a configuration without running it")
+    p = sub.add_parser("validate", help="check a configuration without running it",
+                       description="Check CONFIG and print what running it costs: points, "
+                                   "chunks, output size, free disk needed, estimated time. "
+                                   "Exit status 1 if `sweep run` would refuse it.")
     p.add_argument("config", metavar="CONFIG")
+    p.add_argument("-o", "--output", metavar="OUT.nc",
+                   help="the output `sweep run` would write (default: CONFIG's name with .nc)")
+    _add_limit_options(p)
+    p.add_argument("--no-estimate", action="store_true",
+                   help="skip the time estimate (it times the computation on a few points)")
+    _add_debug(p)
     p.set_defaults(func=_cmd_validate)
 
 
 def _cmd_validate(args):
-    from sweep.sweeps import config, design
+    from sweep.sweeps import config, design, preflight, runner
 
     cfg = config.load(args.config)
     d = design.build(cfg.design)
     out = cfg.outputs
+    pre = runner.preflight(cfg, args.output, args.chunk_size)
     print(f"{args.config}: valid")
     print(f"  {d.describe()}")
     print(f"  stored variables: {', '.join(out.variables)}")
     print(f"  numerical integration: {'yes' if out.needs_integration else 'no'}; "
           f"approximations evaluated: {', '.join(out.approximations) or 'none'}")
+    for line in pre.lines():
+        print(f"  {line}")
+    if not args.no_estimate:
+        rate, source = runner.estimate_rate(cfg, args.output)
+        print(f"  estimated time: {preflight.format_duration(pre.n_points / rate)} at "
+              f"{rate:,.0f} points/s ({source})")
+    refusal = pre.refusal(_limits(args)) or pre.disk_refusal()
+    if refusal is not None and not args.force:
+        print(f"sweep validate: error: `sweep run` would refuse {args.config}: {refusal}",
+              file=sys.stderr)
+        return 1
     return 0
 
 
@@ -82,8 +186,12 @@ def _cmd_info(args):
 
     try:
         print(store.summarize(args.path))
-    except (OSError, FileNotFoundError) as exc:
-        print(f"sweep info: cannot read {args.path}: {exc}", file=sys.stderr)
+    except OSError as exc:
+        print(f"sweep info: error: cannot read {args.path}: {exc.strerror or exc}",
+              file=sys.stderr)
+        return 1
+    except ValueError as exc:  # a netCDF file, but not a sweep output
+        print(f"sweep info: error: {exc}", file=sys.stderr)
         return 1
     return 0
 
@@ -92,7 +200,8 @@ def _cmd_run(args):
     from sweep.sweeps import runner
 
     runner.run(args.config, args.output, restart=args.restart, quiet=args.quiet,
-               chunk_size=args.chunk_size, scheduler=args.scheduler)
+               chunk_size=args.chunk_size, scheduler=args.scheduler, force=args.force,
+               limits=_limits(args), scheduler_timeout=args.scheduler_timeout)
     return 0
 
 
@@ -231,10 +340,12 @@ def build_parser() -> argparse.ArgumentParser:
     argparse.ArgumentParser
         Parsed arguments carry ``func``, the handler of the chosen subcommand.
     """
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="sweep",
         description="Parameter sweeps of the coefficient of restitution of a bead on a "
                     "nonlinear visco-elastic contact (Chatterjee, James, Brogliato 2021).")
+    parser.add_argument("--debug", action="store_true",
+                        help="show the traceback of an error instead of a one-line message")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     _add_run_command(sub)
     _add_info_and_validate_commands(sub)
@@ -246,6 +357,24 @@ def _terminate(signum, frame):
     # SIGTERM (e.g. a batch system's time limit) unwinds like Ctrl-C: finished chunks are
     # already saved, and the half-assembled file is closed.
     raise KeyboardInterrupt
+
+
+def _one_line(exc: BaseException) -> str:
+    """The message of an error on one line, naming the file of an OSError."""
+    if isinstance(exc, OSError) and exc.filename is not None:
+        text = f"{exc.filename}: {exc.strerror or exc}"
+    else:
+        text = str(exc) or type(exc).__name__
+    return " ".join(text.split())
+
+
+def _expected_errors():
+    """Faults of the input or the environment: reported as one line, no traceback."""
+    from sweep.store import ResumeError
+    from sweep.sweeps.config import ConfigError
+    from sweep.sweeps.runner import RunError
+
+    return (ConfigError, ResumeError, RunError, OSError)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -262,9 +391,6 @@ def main(argv: list[str] | None = None) -> int:
         The exit status.
     """
     args = build_parser().parse_args(argv)
-    from sweep.store import ResumeError
-    from sweep.sweeps.config import ConfigError
-
     previous = None
     if args.command == "run":
         try:
@@ -273,12 +399,16 @@ def main(argv: list[str] | None = None) -> int:
             previous = None
     try:
         return args.func(args)
-    except (ConfigError, ResumeError) as exc:
-        print(f"sweep {args.command}: error: {exc}", file=sys.stderr)
-        return 1
     except KeyboardInterrupt:
         print("sweep: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:
+        if getattr(args, "debug", False):
+            raise
+        kind = "" if isinstance(exc, _expected_errors()) else f"unexpected {type(exc).__name__}: "
+        print(f"sweep {args.command}: error: {kind}{_one_line(exc)}"
+              + (" (rerun with --debug for the traceback)" if kind else ""), file=sys.stderr)
+        return 1
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)

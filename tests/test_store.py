@@ -195,7 +195,8 @@ def test_summarize_reports_dims_variables_and_statistics(tmp_path):
     data["e_ord1"][:] = [0.5, 1.0, 0.25, np.nan, 0.75, 0.5]
     path = tmp_path / "s.nc"
     write_dataset(path, layout, data, [(0, 6)],
-                  attrs={"title": "demo", "integrator_steps": 64.0, "n_points": 6})
+                  attrs={"title": "demo", "integrator_steps": 64.0, "n_points": 6,
+                         "sweep_version": "0.1.0"})
     text = store.summarize(path)
     assert "demo" in text and "gamma = 2" in text and "(6 points)" in text
     assert "ok: 3, stuck: 1, at_rest: 0, budget_exhausted: 1, invalid: 1" in text

@@ -2,10 +2,13 @@
 
 Life of an output ``OUT.nc``:
 
+0. ``OUT.nc.lock`` is held (``flock``) by the one process writing ``OUT.nc`` and names it
+   (PID, host); a second writer is refused before it touches anything.
 1. ``OUT.nc.partial/`` holds ``manifest.json`` (hash of the configuration, package version,
    chunking) and one ``chunk_NNNNNNN.npz`` per finished chunk, each written to a temporary
    name and renamed, so a crash (Ctrl-C, ``kill -9``) never leaves a half-written chunk.
-   These files are the source of truth for resuming (:mod:`sweep.store.partial`).
+   Every chunk file records what it belongs to and a checksum of its values, verified on
+   resume. These files are the source of truth for resuming (:mod:`sweep.store.partial`).
 2. While the run goes on, chunks are also written, as they finish, into
    ``OUT.nc.partial/assembling.nc``: a netCDF4 file whose variables are created up front at
    their final size, so memory stays bounded whatever the design size
@@ -25,7 +28,8 @@ Modules, one job each:
 :mod:`~sweep.store.netcdf`
     :class:`NetCDFWriter`, storage chunking and compression, :func:`commit`.
 :mod:`~sweep.store.partial`
-    :class:`PartialStore` (manifest, chunk files, lock), :class:`ResumeError`.
+    :class:`PartialStore` (manifest, verified chunk files), :class:`OutputLock`,
+    :class:`ResumeError`, :class:`LockError`.
 :mod:`~sweep.store.summary`
     :func:`summarize` (``sweep info``), :func:`read_global_attrs`.
 
@@ -38,14 +42,17 @@ from __future__ import annotations
 
 from sweep.store.layout import Layout, Writer, flat_blocks
 from sweep.store.metadata import REPORT, coordinate_attrs, variable_spec
-from sweep.store.netcdf import (CHUNK_CACHE_BYTES, COMPLEVEL, STORAGE_CHUNK, NetCDFWriter,
-                                commit)
-from sweep.store.partial import MANIFEST_FORMAT, PartialStore, ResumeError, partial_dir
+from sweep.store.netcdf import (CHUNK_CACHE_BYTES, COMPLEVEL, STORAGE_CHUNK, SUFFIXES,
+                                NetCDFWriter, commit)
+from sweep.store.partial import (CHUNK_FORMAT, MANIFEST_FORMAT, LockError, OutputLock,
+                                 PartialStore, ResumeError, lock_path, partial_bytes,
+                                 partial_dir, remove_untrusted)
 from sweep.store.summary import read_global_attrs, summarize
 
 __all__ = [
     "Layout", "Writer", "variable_spec", "coordinate_attrs", "PartialStore", "ResumeError",
     "NetCDFWriter", "commit", "read_global_attrs", "flat_blocks", "summarize",
     "partial_dir", "MANIFEST_FORMAT", "REPORT", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK",
-    "COMPLEVEL",
+    "COMPLEVEL", "SUFFIXES", "CHUNK_FORMAT", "LockError", "OutputLock", "lock_path",
+    "partial_bytes", "remove_untrusted",
 ]

@@ -26,7 +26,12 @@ import numpy as np
 from sweep.store.layout import Layout, flat_blocks
 from sweep.store.metadata import coordinate_attrs, variable_spec
 
-__all__ = ["NetCDFWriter", "commit", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK", "COMPLEVEL"]
+__all__ = ["NetCDFWriter", "commit", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK", "COMPLEVEL",
+           "SUFFIXES"]
+
+#: File name suffixes of the outputs this backend writes. Any other suffix is refused
+#: rather than written as netCDF under a misleading name (``out.zarr`` would be HDF5).
+SUFFIXES = (".nc", ".nc4", ".netcdf")
 
 #: HDF5 chunk cache per variable. netCDF's default (64 MB) times ~20 variables would let the
 #: cache alone exceed the memory budget of a large run; writes are sequential, so two
@@ -161,10 +166,10 @@ class NetCDFWriter:
                 var[sl] = block.reshape(tuple(s.stop - s.start for s in sl))
 
     def close(self) -> None:
-        """Close the file (idempotent)."""
-        if self._nc is not None and self._nc.isopen():
-            self._nc.close()
-        self._nc = None
+        """Close the file (idempotent, also after a failed close, e.g. on a full disk)."""
+        nc, self._nc = self._nc, None
+        if nc is not None and nc.isopen():
+            nc.close()
 
 
 def _fsync_path(path, directory=False):

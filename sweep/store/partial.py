@@ -7,28 +7,64 @@ per finished chunk, each written to a temporary name and renamed, so a crash (Ct
 resuming; the netCDF file being assembled next to them (``assembling.nc``) is not, since an
 HDF5 file is not crash-safe, and a resumed run rebuilds it from the chunk files.
 
+Nothing found on disk is trusted without proof:
+
+* every chunk file records what it belongs to (the manifest's hash, the configuration's
+  hash, its index and point range) and a SHA-256 of its values; :meth:`PartialStore.load_chunk`
+  checks all of it and turns down (for recomputation) a file that is unreadable, damaged or
+  from another run, counting why in :attr:`PartialStore.rejected`;
+* a partial directory without a readable manifest (e.g. left by a ``kill -9`` during the
+  final clean-up, which removes the manifest first) holds nothing attributable: its chunk
+  files are discarded, never resumed (:func:`remove_untrusted`).
+
+One writer per output: :class:`OutputLock` holds an exclusive ``flock`` on ``OUT.nc.lock``
+(next to the output, outside the partial directory, so ``--restart`` cannot delete it from
+under another run) and records the holder's PID, host and start time, which a refused
+second writer names.
+
 May import: the standard library and numpy. Nothing of numba, the kernels or any floor
 above the store.
 """
 from __future__ import annotations
 
+import collections
 import contextlib
+import datetime as _dt
+import hashlib
 import json
 import os
 import shutil
+import socket
+import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["PartialStore", "ResumeError", "partial_dir", "MANIFEST_FORMAT"]
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: no locking
+    fcntl = None
 
-MANIFEST_FORMAT = "sweep-partial/1"
+__all__ = ["PartialStore", "ResumeError", "LockError", "OutputLock", "partial_dir",
+           "lock_path", "remove_untrusted", "partial_bytes", "MANIFEST_FORMAT",
+           "CHUNK_FORMAT"]
+
+#: Format of the manifest; version 2 introduced self-describing, checksummed chunk files.
+MANIFEST_FORMAT = "sweep-partial/2"
+#: Format tag stored in every chunk file's metadata.
+CHUNK_FORMAT = "sweep-chunk/1"
+#: Attempts at taking the lock while its holder is removing the lock file.
+_LOCK_ATTEMPTS = 5
 
 
 class ResumeError(RuntimeError):
     """Existing partial results cannot be resumed with the current configuration."""
+
+
+class LockError(ResumeError):
+    """Another process is writing the same output."""
 
 
 def partial_dir(output: str | os.PathLike) -> Path:
@@ -47,6 +83,12 @@ def partial_dir(output: str | os.PathLike) -> Path:
     return output.with_name(output.name + ".partial")
 
 
+def lock_path(output: str | os.PathLike) -> Path:
+    """Lock file of ``output``: ``OUT.nc`` -> ``OUT.nc.lock`` (see :class:`OutputLock`)."""
+    output = Path(output)
+    return output.with_name(output.name + ".lock")
+
+
 def _short(value):
     s = repr(value)
     return s if len(s) <= 80 else s[:77] + "..."
@@ -54,14 +96,210 @@ def _short(value):
 
 def _write_atomic(path, data_or_writer):
     tmp = path.with_name(path.name + f".tmp{os.getpid()}")
-    with open(tmp, "wb") as fh:
-        if callable(data_or_writer):
-            data_or_writer(fh)
-        else:
-            fh.write(data_or_writer)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "wb") as fh:
+            if callable(data_or_writer):
+                data_or_writer(fh)
+            else:
+                fh.write(data_or_writer)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        # A full disk leaves a half-written temporary file: give its space back at once.
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+# --------------------------------------------------------------------------- the lock
+
+def _holder_text(fd):
+    """Who holds the lock, from the lock file's content (it may not be written yet)."""
+    try:
+        info = json.loads(os.pread(fd, 4096, 0).decode("utf-8"))
+        text = f"PID {int(info['pid'])} on host {info['host']}"
+        return text + (f", started {info['started']}" if info.get("started") else "")
+    except (OSError, ValueError, KeyError, TypeError):
+        return "a process that has not recorded itself yet"
+
+
+class OutputLock:
+    """Exclusive right to write one output, held as an ``flock`` on ``OUT.nc.lock``.
+
+    The kernel releases the lock when its holder exits, ``kill -9`` included, so a lock is
+    never stale; the file's content (PID, host, start time, command, one JSON line) only
+    names the holder in the refusal of a second writer. The file is removed on release.
+
+    Parameters
+    ----------
+    output : path-like
+        The final output path ``OUT.nc``.
+    """
+
+    def __init__(self, output: str | os.PathLike) -> None:
+        self.output = Path(output)
+        self.path = lock_path(self.output)
+        self._fh = None
+
+    @property
+    def held(self) -> bool:
+        """True while this object holds the lock."""
+        return self._fh is not None
+
+    def acquire(self) -> OutputLock:
+        """Take the lock, or refuse at once (never waits).
+
+        Returns
+        -------
+        OutputLock
+            ``self``.
+
+        Raises
+        ------
+        LockError
+            Another process holds it; the message names it (PID and host).
+        OSError
+            The lock file cannot be created (read-only file system, permissions, name too
+            long); ``filename`` is the lock file.
+        """
+        if self._fh is not None or fcntl is None:
+            return self
+        for _ in range(_LOCK_ATTEMPTS):
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = _holder_text(fd)
+                os.close(fd)
+                raise LockError(f"another sweep process is writing {self.output}: {holder} "
+                                f"(lock {self.path})") from None
+            except OSError as exc:  # e.g. ENOLCK: the file system offers no locks
+                os.close(fd)
+                raise OSError(exc.errno, exc.strerror, str(self.path)) from None
+            if self._is_current(fd):
+                # A file object, so that a lock dropped without release() (an exception in
+                # a caller) is still closed, and released, when it is collected.
+                self._fh = os.fdopen(fd, "rb+", buffering=0)
+                self._record()
+                return self
+            # The previous holder removed the file between our open and flock: the lock
+            # we got is on a file nobody else will see. Try again with the new one.
+            os.close(fd)
+        raise LockError(f"cannot lock {self.output}: {self.path} keeps being replaced")
+
+    def _is_current(self, fd):
+        try:
+            st = os.stat(self.path)
+        except FileNotFoundError:
+            return False
+        own = os.fstat(fd)
+        return (st.st_ino, st.st_dev) == (own.st_ino, own.st_dev)
+
+    def _record(self):
+        now = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat()
+        info = {"pid": os.getpid(), "host": socket.gethostname(), "started": now,
+                "argv": sys.argv}
+        data = (json.dumps(info) + "\n").encode()
+        with contextlib.suppress(OSError):  # the record is informative only
+            os.ftruncate(self._fh.fileno(), 0)
+            os.pwrite(self._fh.fileno(), data, 0)
+
+    def release(self) -> None:
+        """Remove the lock file and release the lock (idempotent)."""
+        if self._fh is None:
+            return
+        fh, self._fh = self._fh, None
+        try:
+            # Unlinked while still held, so nobody can lock this file afterwards and
+            # believe it owns the output (see the inode check in acquire).
+            if self._is_current(fh.fileno()):
+                with contextlib.suppress(OSError):
+                    os.unlink(self.path)
+        finally:
+            fh.close()
+
+    def __enter__(self) -> OutputLock:
+        return self.acquire()
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+# --------------------------------------------------------------------------- leftovers
+
+def _read_manifest(directory):
+    """The manifest in ``directory`` as a dict, or None if missing or unreadable."""
+    try:
+        data = json.loads((Path(directory) / "manifest.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) and "format" in data else None
+
+
+def remove_untrusted(output: str | os.PathLike) -> int | None:
+    """Delete the partial directory of ``output`` if it has no valid manifest.
+
+    Its chunk files cannot be attributed to any configuration, so they are never resumed.
+    Call it holding the output's lock.
+
+    Parameters
+    ----------
+    output : path-like
+
+    Returns
+    -------
+    int or None
+        Number of chunk files discarded, or None if there was no such directory.
+    """
+    directory = partial_dir(output)
+    if not directory.is_dir() or _read_manifest(directory) is not None:
+        return None
+    n = sum(1 for _ in directory.glob("chunk_*.npz"))
+    shutil.rmtree(directory)
+    return n
+
+
+def partial_bytes(output: str | os.PathLike) -> int:
+    """Disk space taken by the partial state of ``output`` [bytes] (0 if there is none)."""
+    total = 0
+    with contextlib.suppress(FileNotFoundError, NotADirectoryError):
+        with os.scandir(partial_dir(output)) as entries:
+            for entry in entries:
+                with contextlib.suppress(OSError):
+                    if entry.is_file(follow_symlinks=False):
+                        total += entry.stat(follow_symlinks=False).st_size
+    return total
+
+
+# --------------------------------------------------------------------------- chunk files
+
+def _digest(arrays):
+    """SHA-256 over the name, dtype, shape and bytes of every array, in name order."""
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}|{a.dtype.str}|{a.shape}|".encode())
+        h.update(a.view(np.uint8).reshape(-1) if a.size else b"")
+    return h.hexdigest()
+
+
+def _chunk_problem(meta, data, expect):
+    """Why a chunk file read back does not hold what is expected, or None if it does."""
+    if meta.get("format") != CHUNK_FORMAT:
+        return "unknown format"
+    if (meta.get("identity"), meta.get("config_sha256")) != (expect["identity"],
+                                                             expect["config_sha256"]):
+        return "from another run"
+    if [meta.get("index"), meta.get("start"), meta.get("stop")] != [
+            expect["index"], expect["start"], expect["stop"]]:
+        return "misplaced"
+    n = expect["stop"] - expect["start"]
+    if set(data) != set(expect["variables"]) or any(a.shape != (n,) for a in data.values()):
+        return "incomplete"
+    if meta.get("sha256") != _digest(data):
+        return "checksum mismatch"
+    return None
 
 
 class PartialStore:
@@ -74,13 +312,30 @@ class PartialStore:
     manifest : dict
         What the results depend on (configuration hash, package version, chunking,
         variables). A resume with a different manifest is refused.
+    lock : OutputLock, optional
+        The output's lock, already held by the caller; without one :meth:`open` takes it
+        (and :meth:`release` gives it back).
+
+    Attributes
+    ----------
+    rejected : collections.Counter
+        Saved chunks :meth:`load_chunk` turned down, by reason ("unreadable", "checksum
+        mismatch", "from another run", ...).
+    discarded : int
+        Chunk files found without a valid manifest and deleted by :meth:`open`.
     """
 
-    def __init__(self, output: str | os.PathLike, manifest: Mapping[str, Any]) -> None:
+    def __init__(self, output: str | os.PathLike, manifest: Mapping[str, Any],
+                 lock: OutputLock | None = None) -> None:
         self.output = Path(output)
         self.dir = partial_dir(self.output)
         self.manifest = dict(manifest, format=MANIFEST_FORMAT)
-        self._lock = None
+        self.identity = hashlib.sha256(
+            json.dumps(self.manifest, sort_keys=True, default=str).encode()).hexdigest()
+        self._lock = lock
+        self._own_lock = False
+        self.rejected = collections.Counter()
+        self.discarded = 0
 
     # The manifest keys whose mismatch refuses a resume, with a human description.
     _CHECKED = {
@@ -100,32 +355,46 @@ class PartialStore:
         return self.dir / "assembling.nc"
 
     def open(self, restart: bool = False) -> set[int]:
-        """Create or reopen the partial state; return the set of finished chunk indices.
+        """Take the lock, create or reopen the partial state; return the finished chunks.
 
         Parameters
         ----------
         restart : bool
-            Discard any existing state first.
+            Discard any existing state first (after taking the lock).
 
         Returns
         -------
         set of int
+            Indices of the chunks whose files exist (each is verified when loaded).
 
         Raises
         ------
+        LockError
+            Another process is writing this output.
         ResumeError
             If the existing state was made by a different configuration, version or
-            chunking (unless ``restart``), or another process is writing it.
+            chunking (unless ``restart``).
         """
+        if self._lock is None:
+            self._lock = OutputLock(self.output).acquire()
+            self._own_lock = True
+        try:
+            return self._open(restart)
+        except BaseException:
+            self.release()
+            raise
+
+    def _open(self, restart):
         if restart and self.dir.exists():
             shutil.rmtree(self.dir)
+        self.discarded = remove_untrusted(self.output) or 0
         self.dir.mkdir(parents=True, exist_ok=True)
-        self._acquire_lock()
-        path = self.dir / "manifest.json"
-        if path.exists():
-            self._check_manifest(path)
+        old = _read_manifest(self.dir)
+        if old is not None:
+            self._check_manifest(old)
         else:
-            _write_atomic(path, json.dumps(self.manifest, indent=1).encode())
+            _write_atomic(self.dir / "manifest.json",
+                          json.dumps(self.manifest, indent=1).encode())
         # Leftovers of a crashed run: a half-assembled netCDF file and temporary chunks.
         for p in self.dir.glob("*.tmp*"):
             p.unlink()
@@ -133,14 +402,7 @@ class PartialStore:
             self.assembling.unlink()
         return self.finished()
 
-    def _check_manifest(self, path):
-        try:
-            old = json.loads(path.read_text())
-        except (OSError, ValueError):
-            old = None
-        if old is None:
-            raise ResumeError(f"{path} is unreadable; rerun with --restart to discard "
-                              f"the partial results in {self.dir}")
+    def _check_manifest(self, old):
         for key, what in self._CHECKED.items():
             if old.get(key) != self.manifest.get(key):
                 raise ResumeError(
@@ -150,31 +412,18 @@ class PartialStore:
                     "Rerun with the original configuration, or with --restart to discard "
                     "them.")
 
-    def _acquire_lock(self):
-        try:
-            import fcntl
-        except ImportError:  # pragma: no cover - Windows: no protection
-            return
-        fh = open(self.dir / "lock", "a+")
-        try:
-            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            fh.close()
-            raise ResumeError(f"another sweep process is writing {self.output} "
-                              f"(lock held on {self.dir / 'lock'})") from None
-        self._lock = fh
-
     def release(self) -> None:
-        """Release the lock (idempotent); the saved chunks stay."""
-        if self._lock is not None:
-            self._lock.close()
+        """Release the lock if :meth:`open` took it (idempotent); the saved chunks stay."""
+        if self._own_lock and self._lock is not None:
+            self._lock.release()
             self._lock = None
+            self._own_lock = False
 
     def _chunk_path(self, index):
         return self.dir / f"chunk_{index:07d}.npz"
 
     def finished(self) -> set[int]:
-        """Indices of the chunks whose results are saved."""
+        """Indices of the chunks whose results are saved (not yet verified)."""
         done = set()
         for p in self.dir.glob("chunk_*.npz"):
             try:
@@ -187,6 +436,9 @@ class PartialStore:
                    times: Sequence[float]) -> None:
         """Save a finished chunk atomically (a crash leaves it absent or complete).
 
+        The file records the manifest's hash, the configuration's hash, ``index``, the
+        point range and the SHA-256 of the values, all checked by :meth:`load_chunk`.
+
         Parameters
         ----------
         index, start, stop : int
@@ -198,13 +450,18 @@ class PartialStore:
             reports the time the whole dataset took.
         """
         payload = {name: np.asarray(a) for name, a in arrays.items()}
-        payload["__bounds__"] = np.array([start, stop], dtype=np.int64)
-        payload["__times__"] = np.array(times, dtype=np.float64).reshape(2)
+        meta = {"format": CHUNK_FORMAT, "identity": self.identity,
+                "config_sha256": self.manifest.get("config_sha256"), "index": int(index),
+                "start": int(start), "stop": int(stop),
+                "times": [float(t) for t in times], "sha256": _digest(payload)}
+        payload["__meta__"] = np.array(json.dumps(meta))
         _write_atomic(self._chunk_path(index), lambda fh: np.savez(fh, **payload))
 
     def load_chunk(self, index: int, start: int, stop: int
                    ) -> tuple[dict, tuple[float, float]] | None:
-        """Load a finished chunk, or return None if its file is missing or damaged.
+        """Load and verify a finished chunk; None if it is missing, damaged or foreign.
+
+        A rejected chunk is counted in :attr:`rejected` under its reason.
 
         Parameters
         ----------
@@ -216,26 +473,42 @@ class PartialStore:
         (dict, (float, float)) or None
             The arrays by variable name and the chunk's ``times`` (see :meth:`save_chunk`).
         """
-        path = self._chunk_path(index)
         try:
-            with np.load(path, allow_pickle=False) as z:
+            with np.load(self._chunk_path(index), allow_pickle=False) as z:
                 data = {k: z[k] for k in z.files}
-        except (OSError, ValueError, EOFError, KeyError):
+            meta = json.loads(str(data.pop("__meta__")))
+            times = (float(meta["times"][0]), float(meta["times"][1]))
+        except FileNotFoundError:
             return None
-        bounds = data.pop("__bounds__", None)
-        times = data.pop("__times__", None)
-        if (bounds is None or times is None or list(bounds) != [start, stop]
-                or set(data) != set(self.manifest["variables"])
-                or any(a.shape != (stop - start,) for a in data.values())):
+        except Exception:  # noqa: BLE001 - zipfile, numpy and json each fail their own way
+            # on a truncated or bit-flipped file; every failure means "recompute it".
+            self.rejected["unreadable"] += 1
             return None
-        return data, (float(times[0]), float(times[1]))
+        expect = {"identity": self.identity, "config_sha256":
+                  self.manifest.get("config_sha256"), "index": index, "start": start,
+                  "stop": stop, "variables": self.manifest["variables"]}
+        problem = _chunk_problem(meta, data, expect)
+        if problem is not None:
+            self.rejected[problem] += 1
+            return None
+        return data, times
 
     def discard_chunk(self, index: int) -> None:
         """Delete a saved chunk (no error if it is absent)."""
         with contextlib.suppress(FileNotFoundError):
             self._chunk_path(index).unlink()
 
+    def invalidate(self) -> None:
+        """Delete the manifest: what remains of the directory is no longer resumable.
+
+        Called once the output is published, before :meth:`remove`, so that an interrupted
+        clean-up leaves files that :func:`remove_untrusted` recognises as leftovers.
+        """
+        with contextlib.suppress(FileNotFoundError):
+            (self.dir / "manifest.json").unlink()
+
     def remove(self) -> None:
-        """Delete the partial state (after a successful commit)."""
-        self.release()
+        """Delete the partial state (after a successful commit); release an own lock."""
+        self.invalidate()
         shutil.rmtree(self.dir, ignore_errors=True)
+        self.release()

@@ -73,11 +73,14 @@ def summarize(path: str | os.PathLike) -> str:
     ------
     OSError
         If the file cannot be read as netCDF.
+    ValueError
+        If it is a netCDF file but not a sweep output.
     """
     lines = []
     with netCDF4.Dataset(path, "r") as nc:
         nc.set_auto_maskandscale(False)
         attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
+        _require_sweep_output(path, attrs)
         lines.append(f"{path}: {attrs.get('title', '')}")
         dims = {d: len(nc.dimensions[d]) for d in nc.dimensions}
         lines.append("dimensions: " + ", ".join(f"{d} = {n}" for d, n in dims.items())
@@ -95,6 +98,13 @@ def summarize(path: str | os.PathLike) -> str:
         lines += [f"  {key} = {attrs[key]}" for key in sorted(attrs)
                   if key.startswith(_SETTINGS)]
     return "\n".join(lines)
+
+
+def _require_sweep_output(path, attrs):
+    """Refuse, naming what is missing, a netCDF file that ``sweep run`` did not write."""
+    if "sweep_version" not in attrs:
+        raise ValueError(f"{path} is a netCDF file but not a sweep output (no "
+                         "sweep_version global attribute)")
 
 
 def _coordinate_line(name, var):

@@ -46,8 +46,13 @@ Methods, their options, output fields and parameter domains are read from
 :mod:`sweep.registry` when a configuration is parsed, so a method registered there is
 accepted here at once.
 
-Owns: the configuration format and its validation. May import: :mod:`sweep.registry`
-(no kernels, no numba).
+A configuration file is refused before it is parsed when it is larger than
+:data:`sweep.sweeps.limits.CONFIG_MAX_BYTES` (at most that much is read: ``/dev/zero`` is
+not read forever), is not UTF-8 text, or nests deeper than
+:data:`~sweep.sweeps.limits.CONFIG_MAX_DEPTH`.
+
+Owns: the configuration format and its validation. May import: :mod:`sweep.registry` and
+:mod:`sweep.sweeps.limits` (no kernels, no numba).
 """
 from __future__ import annotations
 
@@ -56,12 +61,14 @@ import difflib
 import hashlib
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
 from sweep import registry
+from sweep.sweeps import limits
 
 try:  # Python >= 3.11
     import tomllib
@@ -108,6 +115,12 @@ def _is_number(v):
     return (_is_int(v) or isinstance(v, float)) and math.isfinite(v)
 
 
+def _short(value, width=80):
+    # Error messages stay one readable line whatever the offending value holds.
+    text = " ".join(repr(value).split())
+    return text if len(text) <= width else text[:width - 3] + "..."
+
+
 class _Table:
     """A TOML table being read: tracks its dotted path and which keys were consumed."""
 
@@ -122,7 +135,7 @@ class _Table:
 
     def error(self, name, message, value=dataclasses.MISSING):
         where = f"{self.source}: " if self.source else ""
-        got = "" if value is dataclasses.MISSING else f", got {value!r}"
+        got = "" if value is dataclasses.MISSING else f", got {_short(value)}"
         raise ConfigError(f"{where}{self.key(name)}: {message}{got}")
 
     def has(self, name):
@@ -266,6 +279,9 @@ def _grid_axis(design, name):
     tab.finish()
     if num < 1:
         tab.error("num", "must be >= 1 (an empty range)", num)
+    if num > limits.GRID_AXIS_MAX_POINTS:
+        tab.error("num", f"must be <= {limits.GRID_AXIS_MAX_POINTS} points on one axis "
+                         "(the axis is held in memory)", num)
     _check_domain(tab, "start", name, start)
     _check_domain(tab, "stop", name, stop)
     if num > 1 and not stop > start:
@@ -552,11 +568,7 @@ def loads(text, source=""):
     ConfigError
         On any invalid key or value, naming it.
     """
-    where = f"{source}: " if source else ""
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{where}not valid TOML: {exc}") from None
+    data = _parse_toml(text, source)
     root = _Table(data, "", source)
     # Unknown top-level keys first: a misspelt table name must not surface as "missing".
     root.used.update({"title", "description", "design", "outputs", "integrator", "options",
@@ -586,11 +598,81 @@ def loads(text, source=""):
                   sha256=hashlib.sha256(canonical.encode()).hexdigest())
 
 
+def _parse_toml(text, source):
+    """TOML text -> dict, refusing oversized or too deeply nested documents by name."""
+    where = f"{source}: " if source else ""
+    if len(text) > limits.CONFIG_MAX_BYTES:
+        raise ConfigError(f"{where}configuration larger than {limits.CONFIG_MAX_BYTES} "
+                          "bytes; refused")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{where}not valid TOML: {exc}") from None
+    except RecursionError:  # nested arrays / inline tables recurse in the parser
+        raise ConfigError(f"{where}nested deeper than {limits.CONFIG_MAX_DEPTH} levels; "
+                          "refused") from None
+    deep = _too_deep(data, limits.CONFIG_MAX_DEPTH)
+    if deep is not None:
+        raise ConfigError(f"{where}{deep}: nested deeper than {limits.CONFIG_MAX_DEPTH} "
+                          "levels; refused")
+    return data
+
+
+def _too_deep(data, max_depth):
+    """Dotted key of the first value nested deeper than ``max_depth``, or None.
+
+    Iterative: dotted table headers nest without recursion in the parser, and a recursive
+    walk of them would fail where the check is meant to answer.
+    """
+    stack = [(data, "", 0)]
+    while stack:
+        value, key, depth = stack.pop()
+        if depth > max_depth:
+            return key or "<root>"
+        if isinstance(value, dict):
+            items = ((f"{key}.{k}" if key else str(k), v) for k, v in value.items())
+        elif isinstance(value, list):
+            items = ((f"{key}[{i}]", v) for i, v in enumerate(value))
+        else:
+            continue
+        stack.extend((v, k, depth + 1) for k, v in items)
+    return None
+
+
+def _read_config_bytes(path):
+    """At most CONFIG_MAX_BYTES + 1 bytes of ``path``: enough to refuse a larger file
+    without reading it (a size from stat is refused at once; devices and pipes such as
+    /dev/zero report none and are cut off by the bounded read)."""
+    limit = limits.CONFIG_MAX_BYTES
+    with open(path, "rb") as fh:
+        size = os.fstat(fh.fileno()).st_size
+        if size > limit:
+            raise ConfigError(f"{path}: configuration file of {size} bytes is larger than "
+                              f"the limit of {limit} bytes; refused without reading it")
+        data = fh.read(limit + 1)
+    if len(data) > limit:
+        raise ConfigError(f"{path}: configuration larger than {limit} bytes (read stopped "
+                          "there); refused")
+    return data
+
+
 def load(path):
-    """Read and validate the configuration file at ``path`` (see :func:`loads`)."""
+    """Read and validate the configuration file at ``path`` (see :func:`loads`).
+
+    Raises
+    ------
+    ConfigError
+        Also when the file cannot be read, is larger than
+        :data:`~sweep.sweeps.limits.CONFIG_MAX_BYTES` or is not UTF-8 text.
+    """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        data = _read_config_bytes(path)
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read configuration: {exc.strerror}") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
+                          f"{exc.start}); save the configuration as UTF-8") from None
     return loads(text, source=str(path))

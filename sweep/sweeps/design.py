@@ -21,14 +21,17 @@ from __future__ import annotations
 
 import abc
 import math
+import operator
 import warnings
+from collections.abc import Sequence
 
 import numpy as np
 from scipy.stats import qmc
 
 from sweep.sweeps.config import PARAMETERS, DoESpec, GridSpec
 
-__all__ = ["Design", "GridDesign", "DoEDesign", "build", "chunk_bounds", "BUILDERS"]
+__all__ = ["Design", "GridDesign", "DoEDesign", "build", "chunk_bounds", "Chunks",
+           "BUILDERS"]
 
 
 def chunk_bounds(size, chunk_size):
@@ -39,9 +42,54 @@ def chunk_bounds(size, chunk_size):
     list of (int, int)
         ``(start, stop)`` per chunk; all of length ``chunk_size`` but the last.
     """
-    if chunk_size < 1:
-        raise ValueError(f"chunk_size must be >= 1, got {chunk_size!r}")
-    return [(s, min(s + chunk_size, size)) for s in range(0, size, chunk_size)]
+    return list(Chunks(size, chunk_size))
+
+
+class Chunks(Sequence):
+    """The chunks of a design, computed on demand (a lazy :func:`chunk_bounds`).
+
+    Memory does not grow with the number of chunks: chunk ``i`` is
+    ``(i * chunk_size, min((i + 1) * chunk_size, size))``, computed when asked for.
+
+    Parameters
+    ----------
+    size : int
+        Number of points of the design.
+    chunk_size : int
+        Points per chunk, >= 1.
+
+    Raises
+    ------
+    ValueError
+        If ``chunk_size < 1`` or ``size < 0``.
+    """
+
+    def __init__(self, size: int, chunk_size: int) -> None:
+        if chunk_size < 1:
+            raise ValueError(f"chunk_size must be >= 1, got {chunk_size!r}")
+        if size < 0:
+            raise ValueError(f"size must be >= 0, got {size!r}")
+        self.size = int(size)
+        self.chunk_size = int(chunk_size)
+
+    def __len__(self) -> int:
+        return -(-self.size // self.chunk_size)
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        n = len(self)
+        i = operator.index(index)
+        if i < 0:
+            i += n
+        if not 0 <= i < n:
+            raise IndexError(f"chunk {index} outside [0, {n})")
+        start = i * self.chunk_size
+        return start, min(start + self.chunk_size, self.size)
+
+    def __iter__(self):
+        for start in range(0, self.size, self.chunk_size):
+            yield start, min(start + self.chunk_size, self.size)
 
 
 class Design(abc.ABC):

@@ -22,25 +22,39 @@ Two executors:
 Every chunk's values depend only on its points, and point ``i`` of a design never depends on
 the chunking, so results are identical for any chunk size, thread count or executor.
 
-:func:`run` is a driver that reads as its steps: prepare (load the configuration, build
-the design and the :class:`ComputePlan`), check an existing output, plan the chunks, open
-the partial state, stream the chunks (resumed ones copied, the others computed), finish
-(write the timing attributes, commit atomically) and report.
+:func:`run` is a driver that reads as its steps: prepare (load the configuration, check
+the output path, build the design and the :class:`ComputePlan`), preflight (refuse a design
+above the limits unless forced, before anything is allocated), take the output's lock
+(before touching anything, ``--restart`` included), check an existing output, connect to
+the scheduler, plan the chunks (lazily), check the free disk, open the partial state,
+stream the chunks (saved ones verified and copied, the others computed), finish (write the
+timing attributes, commit atomically with signals held, clean up) and report.
+
+Faults end in :class:`RunError` (or :class:`sweep.store.ResumeError`,
+:class:`sweep.sweeps.config.ConfigError`) with a one-line message; the finished chunks are
+kept and the previous output is only ever replaced by a complete new one.
 
 Floor 4: may import :mod:`sweep.api`, :mod:`sweep.store`, :mod:`sweep.sweeps.config`,
-:mod:`sweep.sweeps.design` and :mod:`sweep._version` (and, lazily, tqdm and Dask); nothing
-of the reports or the command line.
+:mod:`sweep.sweeps.design`, :mod:`sweep.sweeps.limits`, :mod:`sweep.sweeps.preflight` and
+:mod:`sweep._version` (and, lazily, tqdm and Dask); nothing of the reports or the command
+line.
 """
 from __future__ import annotations
 
 import collections
 import concurrent.futures
+import contextlib
 import dataclasses
 import datetime as _dt
+import errno
+import functools
 import hashlib
 import importlib.metadata
+import os
 import platform
+import signal
 import sys
+import threading
 import time
 import uuid
 from collections.abc import Callable, Iterator
@@ -53,9 +67,11 @@ from sweep import api, store
 from sweep._version import __version__
 from sweep.sweeps import config as _config
 from sweep.sweeps import design as _design
+from sweep.sweeps import limits as _limits
+from sweep.sweeps import preflight as _preflight_mod
 
-__all__ = ["ComputePlan", "compute_chunk", "run", "RunResult", "default_output",
-           "source_sha256"]
+__all__ = ["ComputePlan", "compute_chunk", "run", "RunResult", "RunError", "default_output",
+           "source_sha256", "preflight", "estimate_rate"]
 
 
 # --------------------------------------------------------------------------- computing
@@ -158,6 +174,16 @@ class RunResult:
         Number of chunks of the design (set once the output is written).
     resumed_chunks : int
         Chunks copied from saved partial results instead of computed.
+    recomputed_chunks : int
+        Saved chunks that failed verification (unreadable, damaged, from another run) and
+        were computed again.
+    discarded_chunks : int
+        Chunk files found without a valid manifest and deleted unread.
+    committed : bool
+        The output was published.
+    cleanup_interrupted : bool
+        A signal cut the removal of the partial directory short, after the output was
+        published (the output is complete; the next run removes the leftovers).
     """
 
     output: Path
@@ -168,6 +194,10 @@ class RunResult:
     up_to_date: bool = False
     chunks: int = 0
     resumed_chunks: int = 0
+    recomputed_chunks: int = 0
+    discarded_chunks: int = 0
+    committed: bool = False
+    cleanup_interrupted: bool = False
 
     @property
     def points_per_second(self) -> float:
@@ -291,41 +321,53 @@ def _local_executor(plan, tasks):
         yield index, start, stop, points, arrays, seconds
 
 
-def _dask_executor(plan, tasks, scheduler):
-    from distributed import Client, as_completed
-
-    own = not isinstance(scheduler, Client)
-    client = Client(scheduler) if own else scheduler
+def _connect(scheduler, timeout):
+    """A Dask client for ``scheduler`` (an address or a client), connected now, before
+    any file is touched; returns ``(client, own)``. An address that does not answer
+    within ``timeout`` seconds is a :class:`RunError` naming it."""
+    if scheduler is None:
+        return None, False
     try:
-        # A bounded number of chunks in flight keeps memory bounded on both sides.
-        window = max(2, 2 * sum(client.nthreads().values()))
-        futures = as_completed()
-        meta = {}
-        token = uuid.uuid4().hex  # task keys unique to this run on a shared scheduler
-        tasks = iter(tasks)
+        from distributed import Client
+    except ImportError:
+        raise RunError("--scheduler needs Dask: pip install 'sweep[dask]'") from None
+    if isinstance(scheduler, Client):
+        return scheduler, False
+    timeout = _limits.SCHEDULER_TIMEOUT_S if timeout is None else timeout
+    try:
+        return Client(scheduler, timeout=timeout), True
+    except (OSError, ValueError, TypeError) as exc:  # timeouts are OSErrors in distributed
+        raise RunError(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from exc
 
-        def submit_next():
-            for index, start, stop, points in tasks:
-                fut = client.submit(compute_chunk, plan,
-                                    *(points[k] for k in _config.PARAMETERS),
-                                    pure=False, key=f"sweep-chunk-{index}-{token}")
-                meta[fut.key] = (index, start, stop, points)
-                futures.add(fut)
-                return True
-            return False
 
-        for _ in range(window):
-            if not submit_next():
-                break
-        for fut in futures:
-            arrays, seconds = fut.result()
-            index, start, stop, points = meta.pop(fut.key)
-            fut.release()
-            yield index, start, stop, points, arrays, seconds
-            submit_next()
-    finally:
-        if own:
-            client.close()
+def _dask_executor(plan, tasks, client):
+    from distributed import as_completed
+
+    # A bounded number of chunks in flight keeps memory bounded on both sides.
+    window = max(2, 2 * sum(client.nthreads().values()))
+    futures = as_completed()
+    meta = {}
+    token = uuid.uuid4().hex  # task keys unique to this run on a shared scheduler
+    tasks = iter(tasks)
+
+    def submit_next():
+        for index, start, stop, points in tasks:
+            fut = client.submit(compute_chunk, plan, *(points[k] for k in _config.PARAMETERS),
+                                pure=False, key=f"sweep-chunk-{index}-{token}")
+            meta[fut.key] = (index, start, stop, points)
+            futures.add(fut)
+            return True
+        return False
+
+    for _ in range(window):
+        if not submit_next():
+            break
+    for fut in futures:
+        arrays, seconds = fut.result()
+        index, start, stop, points = meta.pop(fut.key)
+        fut.release()
+        yield index, start, stop, points, arrays, seconds
+        submit_next()
 
 
 #: Chunks allowed to wait for the background writer (0: write in the main thread).
@@ -371,6 +413,12 @@ class _WriteBehind:
 
 # --------------------------------------------------------------------------- the driver's steps
 
+class RunError(RuntimeError):
+    """A run cannot start or go on: refused by the preflight, a bad output path, a full
+    disk, an unreachable scheduler. The message is one line naming the file, value or
+    address and the cause."""
+
+
 @dataclasses.dataclass
 class _Job:
     """What the steps of one :func:`run` call share."""
@@ -383,7 +431,8 @@ class _Job:
     chunk_size: int
     log: Callable[[str], None]
     result: RunResult
-    chunks: list = dataclasses.field(default_factory=list)
+    chunks: Any = ()
+    pre: Any = None
 
 
 @dataclasses.dataclass
@@ -398,28 +447,132 @@ class _Totals:
         self.kernel += kernel
 
 
+def _check_output_path(output):
+    """Refuse, before anything is computed, an output the run could not publish."""
+    if output.suffix.lower() not in store.SUFFIXES:
+        raise RunError(
+            f"{output}: unknown output format {output.suffix or '(no suffix)'!r}; sweep "
+            f"writes netCDF4 files ({', '.join(store.SUFFIXES)}); Zarr and other formats "
+            f"are not written: use e.g. -o {output.with_suffix('.nc').name}")
+    if output.is_dir():
+        raise RunError(f"{output} is a directory; give the output file name with -o")
+    if output.exists() and not output.is_file():
+        raise RunError(f"{output} exists and is not a regular file; choose another -o")
+    longest = len(os.fsencode(store.partial_dir(output).name))
+    try:
+        name_max = os.pathconf(_existing_ancestor(output.parent), "PC_NAME_MAX")
+    except (OSError, ValueError):
+        name_max = 255
+    if longest > name_max:
+        raise RunError(f"output name too long: {output.name[:40]}... makes a "
+                       f"{longest}-byte file name ({store.partial_dir(output).name[-20:]} "
+                       f"included); the file system allows {name_max}")
+
+
+def _existing_ancestor(path):
+    path = Path(path).absolute()
+    return next((p for p in (path, *path.parents) if p.exists()), Path("/"))
+
+
 def _prepare(cfg, output, chunk_size, quiet, log):
-    """Step 1: load the configuration, resolve the output, build the design and plan."""
+    """Step 1: load the configuration, resolve and check the output, build the design."""
     if not isinstance(cfg, _config.Config):
         cfg = _config.load(cfg)
     if log is None:
         log = (lambda msg: None) if quiet else (lambda msg: print(msg, file=sys.stderr))
     output = Path(output) if output is not None else default_output(cfg)
-    chunk_size = int(chunk_size or cfg.chunk_size)
+    _check_output_path(output)
+    if chunk_size is None:
+        chunk_size = cfg.chunk_size
+    elif isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
+        raise RunError(f"chunk size must be an integer >= 1, got {chunk_size!r}")
     design = _design.build(cfg.design)
-    return _Job(cfg=cfg, design=design, plan=ComputePlan.from_config(cfg),
-                layout=_layout(design), output=output, chunk_size=chunk_size, log=log,
-                result=RunResult(output=output, n_points=design.size))
+    job = _Job(cfg=cfg, design=design, plan=ComputePlan.from_config(cfg),
+               layout=_layout(design), output=output, chunk_size=int(chunk_size), log=log,
+               result=RunResult(output=output, n_points=design.size))
+    job.pre = _preflight_mod.preflight(job.layout, job.plan.variables, job.chunk_size,
+                                       job.output)
+    return job
+
+
+def preflight(cfg: _config.Config | str | Path, output: str | Path | None = None,
+              chunk_size: int | None = None) -> _preflight_mod.Preflight:
+    """What :func:`run` with these arguments would cost; nothing is computed or written.
+
+    Parameters
+    ----------
+    cfg, output, chunk_size
+        As for :func:`run`.
+
+    Returns
+    -------
+    sweep.sweeps.preflight.Preflight
+
+    Raises
+    ------
+    sweep.sweeps.config.ConfigError, RunError
+        As :func:`run` would before starting (configuration, output path, chunk size).
+    """
+    return _prepare(cfg, output, chunk_size, True, None).pre
+
+
+def estimate_rate(cfg: _config.Config | str | Path,
+                  output: str | Path | None = None) -> tuple[float, str]:
+    """Points per second :func:`run` can expect, and where the figure comes from.
+
+    The rate of the last run of this configuration into ``output`` if there is one, else
+    a short calibration (:func:`sweep.sweeps.preflight.calibrate`; the kernels are
+    compiled or loaded first, untimed).
+
+    Returns
+    -------
+    (float, str)
+    """
+    job = _prepare(cfg, output, None, True, None)
+    return _preflight_mod.estimate_rate(job.design, functools.partial(compute_chunk, job.plan),
+                                        job.output, job.cfg.sha256)
+
+
+def _preflight(job, force, limits):
+    """Step 2: size the run from the layout alone (done by :func:`_prepare`); refuse it
+    above the limits unless ``force`` -- before anything is allocated or written."""
+    refusal = job.pre.refusal(limits or _preflight_mod.Limits())
+    if refusal is not None:
+        if not force:
+            raise RunError(refusal)
+        job.log(f"--force: {refusal.split(';')[0]}")
+
+
+def _take_lock(job):
+    """Step 3: own the output before touching anything (``--restart`` included)."""
+    try:
+        job.output.parent.mkdir(parents=True, exist_ok=True)
+        return store.OutputLock(job.output).acquire()
+    except OSError as exc:
+        raise RunError(f"cannot write in {job.output.parent.absolute()}: "
+                       f"{exc.filename or job.output}: {exc.strerror or exc}") from exc
+
+
+def _drop_untrusted(job):
+    """A partial directory without a valid manifest (e.g. a clean-up cut by kill -9) is
+    never resumed: it is removed, saying how many chunk files it held."""
+    n = store.remove_untrusted(job.output)
+    if n is not None:
+        job.result.discarded_chunks = n
+        job.log(f"removed {store.partial_dir(job.output)}: {n} chunk files without a valid "
+                "manifest (left over by an interrupted run or clean-up; never resumed)")
 
 
 def _existing_output_is_current(job, restart):
-    """Step 2: True if the output already holds this configuration's results.
+    """Step 4: True if the output already holds this configuration's results.
 
     An existing output is reused only if it is what this configuration would produce;
     saved partial results (e.g. of an interrupted --restart) take precedence over it, and
     any other existing file is refused rather than overwritten.
     """
     output = job.output
+    if not restart:
+        _drop_untrusted(job)
     if not output.exists() or restart or store.partial_dir(output).exists():
         return False
     attrs = store.read_global_attrs(output)
@@ -436,8 +589,9 @@ def _existing_output_is_current(job, restart):
 
 
 def _plan_chunks(job):
-    """Step 3: cut the design into chunks; return the manifest the results depend on."""
-    job.chunks = _design.chunk_bounds(job.design.size, job.chunk_size)
+    """Step 6: cut the design into chunks (lazily); return the manifest the results
+    depend on."""
+    job.chunks = _design.Chunks(job.design.size, job.chunk_size)
     return {
         "config_sha256": job.cfg.sha256,
         "sweep_version": __version__,
@@ -450,14 +604,23 @@ def _plan_chunks(job):
     }
 
 
-def _open_partial(job, manifest, restart):
-    """Step 4: create or reopen the resumable state; return it and the finished chunks."""
-    partial = store.PartialStore(job.output, manifest)
+def _check_disk(job, force):
+    """Step 7: enough free disk for the chunk files and the assembled output?"""
+    refusal = job.pre.disk_refusal(saved=store.partial_bytes(job.output))
+    if refusal is not None:
+        if not force:
+            raise RunError(refusal)
+        job.log(f"--force: {refusal.split(';')[0]}")
+
+
+def _open_partial(job, manifest, restart, lock):
+    """Step 8: create or reopen the resumable state; return it and the finished chunks."""
+    partial = store.PartialStore(job.output, manifest, lock=lock)
     return partial, partial.open(restart=restart)
 
 
 def _report(job, t_start):
-    """Step 7: time the call and say what it did."""
+    """Step 11: time the call and say what it did."""
     result = job.result
     result.wall_seconds = time.perf_counter() - t_start
     job.log(f"wrote {job.output}: {job.design.size} points ({result.computed_points} "
@@ -470,8 +633,9 @@ def _chunk_points(job, start, stop):
 
 
 def _tasks(job, partial, done, behind, totals, bar) -> Iterator[tuple]:
-    """Chunks to compute, in order; saved chunks are copied into the output on the way
-    (in order, so storage chunks are written sequentially)."""
+    """Chunks to compute, in order; saved chunks are verified and copied into the output
+    on the way (in order, so storage chunks are written sequentially). A saved chunk that
+    fails verification is recomputed."""
     for index, (start, stop) in enumerate(job.chunks):
         need_points = index not in done or job.layout.point_coords
         points = _chunk_points(job, start, stop) if need_points else None
@@ -483,30 +647,46 @@ def _tasks(job, partial, done, behind, totals, bar) -> Iterator[tuple]:
                 totals.add(wall, kernel)
                 job.result.resumed_chunks += 1
                 continue
-            job.log(f"chunk {index}: saved file unreadable, recomputing it")
             done.discard(index)
+            job.result.recomputed_chunks += 1
             bar.update(-(stop - start))  # it was counted as done at the start
             if points is None:
                 points = _chunk_points(job, start, stop)
         yield index, start, stop, points
 
 
-def _stream_chunks(job, partial, done, behind, quiet, scheduler):
-    """Step 5: compute the missing chunks, saving and writing each as it finishes.
+def _log_plan(job, done):
+    pre = job.pre
+    free = _preflight_mod.free_disk(pre.directory)
+    job.log(f"sweep: {job.design.describe()}; {len(job.chunks)} chunks of <= "
+            f"{job.chunk_size} points; output <= "
+            f"{_preflight_mod.format_bytes(pre.output_bytes)} uncompressed"
+            + (f", {_preflight_mod.format_bytes(free)} free disk" if free is not None else "")
+            + (f"; resuming, {len(done)} chunks already done" if done else ""))
+
+
+def _log_rejected(job, partial):
+    if not job.result.recomputed_chunks:
+        return
+    why = ", ".join(f"{n} {reason}" for reason, n in sorted(partial.rejected.items()))
+    job.log(f"resume: recomputed {job.result.recomputed_chunks} saved chunks that failed "
+            f"verification ({why})")
+
+
+def _stream_chunks(job, partial, done, behind, quiet, client):
+    """Step 9: compute the missing chunks, saving and writing each as it finishes.
 
     Returns the :class:`_Totals` of the whole dataset (resumed chunks included).
     """
     done = {i for i in done if i < len(job.chunks)}
     done_points = sum(job.chunks[i][1] - job.chunks[i][0] for i in done)
-    job.log(f"sweep: {job.design.describe()}; {len(job.chunks)} chunks of <= "
-            f"{job.chunk_size} points"
-            + (f"; resuming, {len(done)} chunks already done" if done else ""))
+    _log_plan(job, done)
     totals, result = _Totals(), job.result
     last = time.perf_counter()
     with _progress(job.design.size, done_points, quiet, job.output.name) as bar:
         tasks = _tasks(job, partial, done, behind, totals, bar)
-        executor = (_local_executor(job.plan, tasks) if scheduler is None
-                    else _dask_executor(job.plan, tasks, scheduler))
+        executor = (_local_executor(job.plan, tasks) if client is None
+                    else _dask_executor(job.plan, tasks, client))
         for index, start, stop, points, arrays, kernel in executor:
             # A chunk's wall time runs from the end of the previous one's computation
             # (so its own saving and writing count towards the next chunk).
@@ -518,11 +698,37 @@ def _stream_chunks(job, partial, done, behind, quiet, scheduler):
             result.computed_points += stop - start
             result.kernel_seconds += kernel
             bar.update(stop - start)
+    _log_rejected(job, partial)
     return totals
 
 
+@contextlib.contextmanager
+def _signals_deferred():
+    """Hold SIGINT and SIGTERM until the block ends, then deliver them as usual.
+
+    The publication of the output and the invalidation of the partial state must not be
+    cut in half by a signal: an interruption there would report a complete output as
+    interrupted. Blocking the signals with a thread mask is not enough (numba's and the
+    writer's threads would receive them); Python runs signal handlers in the main thread
+    only, so a handler that just records them holds them there.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending = []
+    previous = {s: signal.signal(s, lambda signum, frame: pending.append(signum))
+                for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
+        for s in pending:
+            signal.raise_signal(s)
+
+
 def _finish(job, partial, writer, behind, totals):
-    """Step 6: complete the file (timing attributes), publish it atomically, clean up."""
+    """Step 10: complete the file (timing attributes), publish it atomically, clean up."""
     behind.drain()
     job.result.chunks = len(job.chunks)
     run_time = totals.wall
@@ -533,36 +739,105 @@ def _finish(job, partial, writer, behind, totals):
                               else -1.0),
     })
     writer.close()
-    store.commit(partial.assembling, job.output)
-    partial.remove()
+    try:
+        with _signals_deferred():
+            store.commit(partial.assembling, job.output)
+            partial.invalidate()
+            job.result.committed = True
+        partial.remove()
+    except KeyboardInterrupt:
+        if not job.result.committed:
+            raise
+        # The output is complete: this is not an interrupted run. What is left of the
+        # partial directory has no manifest, and the next run removes it.
+        job.result.cleanup_interrupted = True
+        job.log(f"clean-up of {partial.dir} interrupted; {job.output} is complete (the "
+                "next run removes the leftovers)")
 
 
-def _write_output(job, partial, done, quiet, scheduler):
-    """Steps 5 and 6 around one writer; whatever happens, the file and lock are released."""
+def _disk_is_full(exc, directory):
+    if isinstance(exc, OSError):
+        return exc.errno in (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC))
+    # HDF5 reports a full disk as "NetCDF: HDF error", without errno: look at the disk.
+    free = _preflight_mod.free_disk(directory)
+    return (isinstance(exc, RuntimeError) and free is not None
+            and free < _limits.DISK_FULL_MARGIN)
+
+
+def _write_failure(job, partial, exc):
+    """The one-line error for a failure while chunks are saved or written, or None to
+    let ``exc`` through. Finished chunks are kept either way."""
+    saved = len(partial.finished())
+    keep = (f"the {saved} finished chunks are kept in {partial.dir}: rerun the same "
+            "command to resume")
+    if _disk_is_full(exc, partial.dir):
+        free = _preflight_mod.free_disk(partial.dir)
+        return RunError(f"no space left on the device of {partial.dir} "
+                        f"({_preflight_mod.format_bytes(free or 0)} free); {keep} once "
+                        "space is freed")
+    if isinstance(exc, OSError):
+        return RunError(f"cannot write {exc.filename or partial.dir}: "
+                        f"{exc.strerror or exc}; {keep}")
+    if isinstance(exc, RuntimeError) and str(exc).startswith("NetCDF"):
+        return RunError(f"cannot write {partial.assembling}: {exc}; {keep}")
+    return None
+
+
+def _write_output(job, partial, done, quiet, client):
+    """Steps 9 and 10 around one writer; whatever happens, the file is closed and a
+    half-assembled one deleted (it is rebuilt from the chunk files; deleting it gives a
+    full disk its space back)."""
     writer = behind = None
     try:
         writer = store.NetCDFWriter(partial.assembling, job.layout, job.plan.variables,
                                     _static_attrs(job.cfg, job.design, job.plan,
                                                   job.chunk_size))
         behind = _WriteBehind(writer, depth=WRITE_BEHIND)
-        totals = _stream_chunks(job, partial, done, behind, quiet, scheduler)
+        totals = _stream_chunks(job, partial, done, behind, quiet, client)
         _finish(job, partial, writer, behind, totals)
     except KeyboardInterrupt:
         n_saved = len(partial.finished())
         job.log(f"\ninterrupted: {n_saved} of {len(job.chunks)} chunks are saved in "
                 f"{partial.dir}; rerun the same command to resume")
         raise
+    except Exception as exc:
+        failure = _write_failure(job, partial, exc)
+        if failure is None:
+            raise
+        raise failure from exc
     finally:
         if behind is not None:
             behind.shutdown()
         if writer is not None:
-            writer.close()
-        partial.release()
+            with contextlib.suppress(Exception):  # a full disk also fails the close
+                writer.close()
+        if not job.result.committed:
+            with contextlib.suppress(OSError):
+                partial.assembling.unlink()
+
+
+def _run_locked(job, restart, quiet, force, scheduler, scheduler_timeout, lock):
+    """Steps 4 to 10, holding the output's lock."""
+    if _existing_output_is_current(job, restart):
+        job.result.up_to_date = True
+        return
+    client, own = _connect(scheduler, scheduler_timeout)
+    try:
+        manifest = _plan_chunks(job)
+        _check_disk(job, force)
+        partial, done = _open_partial(job, manifest, restart, lock)
+        job.result.discarded_chunks += partial.discarded
+        _write_output(job, partial, done, quiet, client)
+    finally:
+        if own:
+            client.close()
 
 
 def run(cfg: _config.Config | str | Path, output: str | Path | None = None, *,
         restart: bool = False, quiet: bool = False, chunk_size: int | None = None,
-        scheduler: Any = None, log: Callable[[str], None] | None = None) -> RunResult:
+        scheduler: Any = None, log: Callable[[str], None] | None = None,
+        force: bool = False, limits: _preflight_mod.Limits | None = None,
+        scheduler_timeout: float | None = None) -> RunResult:
     """Run a sweep and write its dataset.
 
     Parameters
@@ -570,18 +845,27 @@ def run(cfg: _config.Config | str | Path, output: str | Path | None = None, *,
     cfg : Config or path-like
         A validated configuration, or the path of a TOML configuration file.
     output : path-like, optional
-        Output netCDF file (default :func:`default_output`).
+        Output netCDF file (default :func:`default_output`); its suffix must be one of
+        :data:`sweep.store.SUFFIXES`.
     restart : bool
         Discard saved partial results (and overwrite an existing output) instead of
         resuming.
     quiet : bool
         No progress bar, no messages.
     chunk_size : int, optional
-        Points per chunk (default: the configuration's ``run.chunk_size``).
+        Points per chunk, >= 1 (default: the configuration's ``run.chunk_size``).
     scheduler : str or distributed.Client, optional
         Address of a Dask scheduler (``tcp://host:port``): run the chunks on that cluster.
     log : callable, optional
         Receives progress messages (default: print to stderr unless quiet).
+    force : bool
+        Run although the preflight finds the design above ``limits`` or the free disk
+        short.
+    limits : sweep.sweeps.preflight.Limits, optional
+        Largest run started without ``force`` (default: :mod:`sweep.sweeps.limits`).
+    scheduler_timeout : float, optional
+        Seconds to wait for the scheduler to answer [s] (default
+        :data:`sweep.sweeps.limits.SCHEDULER_TIMEOUT_S`).
 
     Returns
     -------
@@ -592,14 +876,21 @@ def run(cfg: _config.Config | str | Path, output: str | Path | None = None, *,
     sweep.sweeps.config.ConfigError
         Invalid configuration.
     sweep.store.ResumeError
-        Saved partial results or an existing output do not match this configuration.
+        Saved partial results or an existing output do not match this configuration;
+        :class:`sweep.store.LockError` (a subclass) if another process writes the output.
+    RunError
+        Refused by the preflight, an output path that cannot be written, a full disk, an
+        unreachable scheduler. Finished chunks are kept and the previous output is never
+        touched.
     """
     t_start = time.perf_counter()
     job = _prepare(cfg, output, chunk_size, quiet, log)
-    if _existing_output_is_current(job, restart):
-        job.result.up_to_date = True
+    _preflight(job, force, limits)
+    lock = _take_lock(job)
+    try:
+        _run_locked(job, restart, quiet, force, scheduler, scheduler_timeout, lock)
+    finally:
+        lock.release()
+    if job.result.up_to_date:
         return job.result
-    manifest = _plan_chunks(job)
-    partial, done = _open_partial(job, manifest, restart)
-    _write_output(job, partial, done, quiet, scheduler)
     return _report(job, t_start)

@@ -1,0 +1,283 @@
+"""Preflight of a run: what it will cost, known before anything is computed or written.
+
+Owns :class:`Preflight` (points, chunks, output size, free disk needed and available), the
+checks of a design against the run limits (:class:`Limits`, :meth:`Preflight.refusal`)
+and against the free disk (:meth:`Preflight.disk_refusal`), and :func:`estimate_rate`, the
+points per second a run can expect: the last run of the same configuration into the same
+output if there is one, else a short calibration on sample points of the design.
+
+Everything here is computed from the layout and the stored variables' dtypes, never by
+allocating the design: a 10^12-point design is described (and refused) in microseconds.
+
+Floor 4: may import numpy, :mod:`sweep.store` (dtypes, existing outputs) and
+:mod:`sweep.sweeps.limits`; the computation to calibrate is passed in.
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+import shutil
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sweep import store
+from sweep.sweeps import limits
+
+__all__ = ["Limits", "Preflight", "preflight", "free_disk", "estimate_rate", "calibrate",
+           "format_bytes", "format_duration"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Limits:
+    """Largest run started without ``--force`` (defaults in :mod:`sweep.sweeps.limits`).
+
+    Attributes
+    ----------
+    max_points : int
+        Points of the design.
+    max_bytes : int
+        Output size, uncompressed [bytes].
+    max_chunks : int
+        Chunks (one file each while the run goes on).
+    """
+
+    max_points: int = limits.MAX_POINTS
+    max_bytes: int = limits.MAX_OUTPUT_BYTES
+    max_chunks: int = limits.MAX_CHUNKS
+
+
+def format_bytes(n: float) -> str:
+    """``1234567`` -> ``"1.23 MB"`` (decimal units)."""
+    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
+        if abs(n) < 1000 or unit == "PB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.3g} {unit}"
+        n /= 1000
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def format_duration(seconds: float) -> str:
+    """``4000`` -> ``"1 h 7 min"``; days and years for absurd designs."""
+    if not np.isfinite(seconds):
+        return "unknown"
+    if seconds < 60:
+        return f"{seconds:.2g} s"
+    minutes = seconds / 60
+    if minutes < 60:
+        return f"{minutes:.0f} min"
+    hours = minutes / 60
+    if hours < 48:
+        return f"{int(hours)} h {int(minutes % 60)} min"
+    days = hours / 24
+    return f"{days:.3g} days" if days < 730 else f"{days / 365.25:.3g} years"
+
+
+def free_disk(directory: str | os.PathLike) -> int | None:
+    """Free space available to this user where ``directory`` is or would be [bytes].
+
+    The nearest existing ancestor is measured (the output's directory may not exist yet);
+    None if none can be.
+    """
+    path = Path(directory).absolute()
+    for candidate in (path, *path.parents):
+        try:
+            return shutil.disk_usage(candidate).free
+        except OSError:
+            continue
+    return None
+
+
+@dataclasses.dataclass(frozen=True)
+class Preflight:
+    """What a run will cost, from the sizes alone.
+
+    Attributes
+    ----------
+    n_points, chunk_size, n_chunks : int
+        Design size and how it is cut.
+    value_bytes : int
+        Bytes per point of the stored variables (what a chunk file holds).
+    coord_bytes : int
+        Bytes per point of per-point coordinates (scattered designs).
+    axes_bytes : int
+        Bytes of the grid's coordinate axes.
+    directory : Path
+        Where the output, its lock and its partial state go.
+    """
+
+    n_points: int
+    chunk_size: int
+    n_chunks: int
+    value_bytes: int
+    coord_bytes: int
+    axes_bytes: int
+    directory: Path
+
+    @property
+    def output_bytes(self) -> int:
+        """Size of the output before compression [bytes] (an upper bound)."""
+        return self.n_points * (self.value_bytes + self.coord_bytes) + self.axes_bytes
+
+    @property
+    def chunk_file_bytes(self) -> int:
+        """Size of all chunk files, kept until the output is published [bytes]."""
+        return self.n_points * self.value_bytes + self.n_chunks * limits.CHUNK_FILE_OVERHEAD
+
+    @property
+    def disk_needed(self) -> int:
+        """Peak disk use of the run: the chunk files plus the assembled output [bytes]."""
+        return self.output_bytes + self.chunk_file_bytes
+
+    def refusal(self, lim: Limits) -> str | None:
+        """Why ``sweep run`` refuses this design without ``--force``, or None."""
+        if self.n_points > lim.max_points:
+            return (f"design of {self.n_points:,} points is above the limit of "
+                    f"{lim.max_points:,} points (--max-points); pass --force to run it")
+        if self.output_bytes > lim.max_bytes:
+            return (f"output of up to {format_bytes(self.output_bytes)} is above the limit "
+                    f"of {format_bytes(lim.max_bytes)} (--max-size); store fewer variables "
+                    "or pass --force to run it")
+        if self.n_chunks > lim.max_chunks:
+            return (f"{self.n_chunks:,} chunks of {self.chunk_size:,} points are above the "
+                    f"limit of {lim.max_chunks:,} chunks; use a larger --chunk-size or pass "
+                    "--force")
+        return None
+
+    def disk_refusal(self, saved: int = 0) -> str | None:
+        """Why the free disk does not suffice, or None.
+
+        Parameters
+        ----------
+        saved : int
+            Bytes of partial state already on disk for this output [bytes]: resumed chunks
+            need no new space, and a restart frees them first.
+        """
+        free = free_disk(self.directory)
+        if free is None or free + saved >= self.disk_needed:
+            return None
+        return (f"not enough free disk in {self.directory}: the run needs up to "
+                f"{format_bytes(self.disk_needed)} (chunk files plus the uncompressed "
+                f"output), {format_bytes(free + saved)} available; free some space, choose "
+                "another -o, or pass --force (compression usually needs less)")
+
+    def lines(self) -> list[str]:
+        """Human-readable description, one item per line."""
+        free = free_disk(self.directory)
+        chunks = "chunk" if self.n_chunks == 1 else "chunks"
+        return [
+            f"points: {self.n_points:,} in {self.n_chunks:,} {chunks} of <= "
+            f"{self.chunk_size:,}",
+            f"output: <= {format_bytes(self.output_bytes)} uncompressed",
+            f"disk: needs <= {format_bytes(self.disk_needed)} in {self.directory} (chunk "
+            f"files + output); "
+            + (f"{format_bytes(free)} free" if free is not None else "free space unknown"),
+        ]
+
+
+def preflight(layout: store.Layout, variables: Sequence[str], chunk_size: int,
+              output: str | os.PathLike) -> Preflight:
+    """The :class:`Preflight` of a run (nothing is allocated).
+
+    Parameters
+    ----------
+    layout : sweep.store.Layout
+        Shape of the stored data.
+    variables : sequence of str
+        Stored variables (dtypes from :func:`sweep.store.variable_spec`).
+    chunk_size : int
+        Points per chunk, >= 1.
+    output : path-like
+        The output file.
+
+    Returns
+    -------
+    Preflight
+    """
+    n = layout.size
+    value_bytes = sum(np.dtype(store.variable_spec(v)[0]).itemsize for v in variables)
+    coord_bytes = 8 * len(layout.point_coords)
+    axes_bytes = 8 * sum(len(a) for a in layout.axes.values())
+    return Preflight(n_points=n, chunk_size=chunk_size, n_chunks=-(-n // chunk_size),
+                     value_bytes=value_bytes, coord_bytes=coord_bytes, axes_bytes=axes_bytes,
+                     directory=Path(output).absolute().parent)
+
+
+def _sample(design: Any, n: int) -> tuple:
+    """``n`` points of the design to time: 16 evenly spaced runs of a grid (its leading
+    points all share one alpha, beta and gamma), the leading points of a design of
+    experiments (spread over the whole box by construction)."""
+    size = design.size
+    if not design.axes or size <= n:
+        return design.points(0, min(n, size))
+    runs = min(16, n)
+    per = n // runs
+    starts = [(k * (size - per)) // (runs - 1) for k in range(runs)]
+    parts = [design.points(s, s + per) for s in starts]
+    return tuple(np.concatenate([p[j] for p in parts]) for j in range(4))
+
+
+def calibrate(design: Any, compute: Callable[..., Any],
+              seconds: float = limits.CALIBRATION_SECONDS,
+              max_points: int = limits.CALIBRATION_MAX_POINTS) -> tuple[float, int]:
+    """Points per second of ``compute`` on sample points of ``design``.
+
+    Parameters
+    ----------
+    design : sweep.sweeps.design.Design
+    compute : callable
+        ``compute(alpha, beta, gamma, gtilde)``, the work of one chunk.
+    seconds : float
+        Wall time to aim at [s]; the sample grows by 4x until it takes a quarter of it.
+    max_points : int
+        Largest sample.
+
+    Returns
+    -------
+    (float, int)
+        Points per second, and the size of the sample that measured it.
+    """
+    def timed(m):
+        points = _sample(design, m)
+        t0 = time.perf_counter()
+        compute(*points)
+        return time.perf_counter() - t0
+
+    cap = max(1, min(design.size, max_points))
+    timed(min(2, cap))  # compiles, or loads the cached kernels: not part of the rate
+    n = min(64, cap)
+    while True:
+        dt = timed(n)
+        if dt >= seconds / 4 or n >= cap:
+            return n / max(dt, 1e-9), n
+        n = min(4 * n, cap)
+
+
+def estimate_rate(design: Any, compute: Callable[..., Any], output: str | os.PathLike,
+                  config_sha256: str) -> tuple[float, str]:
+    """Expected points per second of a run, and where the figure comes from.
+
+    Parameters
+    ----------
+    design : sweep.sweeps.design.Design
+    compute : callable
+        See :func:`calibrate`.
+    output : path-like
+        The run's output: if it holds a finished run of the same configuration, its
+        measured rate is used instead of a calibration.
+    config_sha256 : str
+        :attr:`sweep.sweeps.config.Config.sha256` of the configuration.
+
+    Returns
+    -------
+    (float, str)
+    """
+    attrs = store.read_global_attrs(output) if Path(output).is_file() else None
+    if attrs and attrs.get("sweep_config_sha256") == config_sha256:
+        rate = float(attrs.get("points_per_second", -1.0))
+        if rate > 0:
+            return rate, f"last run of {output}"
+    rate, n = calibrate(design, compute)
+    return rate, f"calibration on {n:,} points"

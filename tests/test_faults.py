@@ -1,0 +1,555 @@
+"""Injected faults: every one ends in the correct file or a clear one-line error, and
+nothing finished is lost (issue 11).
+
+Faults: a second writer (``--restart`` included, in real processes), a partial directory
+without its manifest, damaged chunk files, a full disk and a read-only target (on a small
+tmpfs, skipped where the test cannot mount one), a huge design, a bad scheduler address,
+bad inputs on the command line, and a signal during the final clean-up.
+"""
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import netCDF4
+import numpy as np
+import pytest
+import xarray as xr
+
+from sweep import cli, store
+from sweep.sweeps import config, design, limits, preflight, runner
+
+ROOT = Path(__file__).resolve().parents[1]
+
+GRID = """
+title = "fault test"
+[design]
+kind = "grid"
+alpha = 1.5
+beta = [1.0, 1.5]
+gamma = {start = 0.0, stop = 0.2, num = 9}
+gtilde = [0.0, 0.05, 1.0, 10.0]
+[outputs]
+e = ["numeric", "ord1"]
+fields = ["status"]
+[integrator]
+steps = 16
+[run]
+chunk_size = 10
+"""
+#: The same design with another gamma range: another configuration, same chunking.
+OTHER = GRID.replace("stop = 0.2", "stop = 0.3")
+
+#: Cheap (closed forms only), with a few hundred kB of per-point coordinates.
+DOE = """
+[design]
+kind = "doe"
+sampler = "sobol"
+n = 40000
+seed = 5
+alpha = {min = 1.0, max = 3.0}
+beta = {min = 1.0, max = 3.0}
+gamma = {min = 1e-3, max = 0.5, scale = "log"}
+gtilde = {min = 0.0, max = 10.0}
+[outputs]
+e = ["ord1"]
+[run]
+chunk_size = 4000
+"""
+
+VOLATILE = ("run_time_s", "kernel_time_s", "points_per_second", "date_created", "history")
+
+
+def run(text, path, **kw):
+    kw.setdefault("quiet", True)
+    return runner.run(config.loads(text, source="test.toml"), path, **kw)
+
+
+def opened(path):
+    with xr.open_dataset(path) as ds:
+        ds = ds.load()
+    for key in VOLATILE:
+        ds.attrs.pop(key)
+    return ds
+
+
+def interrupt_after(monkeypatch, n_chunks):
+    real = runner.compute_chunk
+    count = [0]
+
+    def compute(*args):
+        if count[0] == n_chunks:
+            raise KeyboardInterrupt
+        count[0] += 1
+        return real(*args)
+
+    monkeypatch.setattr(runner, "compute_chunk", compute)
+
+
+def interrupted(text, out, n_chunks, monkeypatch, **kw):
+    """Run ``text`` into ``out`` until ``n_chunks`` chunks are saved, then interrupt."""
+    with monkeypatch.context() as m:
+        interrupt_after(m, n_chunks)
+        with pytest.raises(KeyboardInterrupt):
+            run(text, out, **kw)
+    return store.partial_dir(out)
+
+
+def snapshot(directory):
+    return {p.name: p.read_bytes() for p in sorted(Path(directory).iterdir())}
+
+
+def one_line_error(err, *parts):
+    """stderr is exactly one line, with no traceback, naming every part."""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    for part in parts:
+        assert str(part) in lines[0], (part, lines[0])
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """Uninterrupted outputs to compare against, computed once."""
+    d = tmp_path_factory.mktemp("reference")
+    out = {}
+    for name, text in (("grid", GRID), ("other", OTHER), ("doe", DOE)):
+        run(text, d / f"{name}.nc")
+        out[name] = opened(d / f"{name}.nc")
+    return out
+
+
+# --------------------------------------------------------------------------- the lock
+
+def test_a_second_writer_is_refused_with_the_holders_pid_and_host(tmp_path):
+    out = tmp_path / "out.nc"
+    with store.OutputLock(out) as lock:
+        info = json.loads(lock.path.read_text())
+        assert info["pid"] == os.getpid() and info["host"] == socket.gethostname()
+        with pytest.raises(store.LockError) as refused:
+            store.OutputLock(out).acquire()
+        msg = str(refused.value)
+        assert f"PID {os.getpid()} on host {socket.gethostname()}" in msg and str(out) in msg
+    assert not store.lock_path(out).exists()       # released and removed
+    store.OutputLock(out).acquire().release()      # free again
+
+
+def test_restart_under_someone_elses_lock_touches_nothing(tmp_path, monkeypatch, reference):
+    out = tmp_path / "out.nc"
+    run(GRID, out)
+    before = out.read_bytes()
+    partial = interrupted(OTHER, out, 3, monkeypatch, restart=True)
+    saved = snapshot(partial)
+    with store.OutputLock(out):                    # another run writes this output
+        for restart in (True, False):
+            with pytest.raises(store.LockError, match=f"PID {os.getpid()}"):
+                run(OTHER, out, restart=restart)
+    assert snapshot(partial) == saved and out.read_bytes() == before
+    res = run(OTHER, out)                          # the lock is free: resume as usual
+    assert res.resumed_chunks == 3
+    xr.testing.assert_identical(opened(out), reference["other"])
+
+
+#: Runs `sweep run` with a compute_chunk that waits, before its third chunk, until the
+#: file named by SWEEP_TEST_GATE exists: the test decides when it goes on (no sleeps).
+GATED = """
+import os, sys, time
+import sweep.sweeps.runner as r
+real, count = r.compute_chunk, [0]
+def gated(*a):
+    if count[0] == 2:
+        deadline = time.monotonic() + 120
+        while not os.path.exists(os.environ["SWEEP_TEST_GATE"]):
+            assert time.monotonic() < deadline, "the test never opened the gate"
+            time.sleep(0.01)
+    count[0] += 1
+    return real(*a)
+r.compute_chunk = gated
+sys.argv = ["sweep"] + sys.argv[1:]
+from sweep.cli import main
+sys.exit(main())
+"""
+
+
+def test_concurrent_restart_in_another_process_is_refused(tmp_path, reference):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(DOE)
+    out = tmp_path / "out.nc"
+    gate = tmp_path / "gate"
+    env = dict(os.environ, SWEEP_TEST_GATE=str(gate),
+               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    args = ["run", str(cfg), "-o", str(out), "--quiet"]
+    first = subprocess.Popen([sys.executable, "-c", GATED] + args, env=env, cwd=tmp_path,
+                             stderr=subprocess.PIPE, text=True)
+    try:
+        partial = store.partial_dir(out)
+        deadline = time.monotonic() + 120
+        while len(list(partial.glob("chunk_*.npz"))) < 2:
+            assert first.poll() is None, first.stderr.read()
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+        saved = snapshot(partial)
+        second = subprocess.run([sys.executable, "-m", "sweep.cli"] + args + ["--restart"],
+                                env=env, cwd=tmp_path, capture_output=True, text=True,
+                                timeout=120)
+        assert second.returncode == 1
+        one_line_error(second.stderr, "another sweep process", f"PID {first.pid}",
+                       socket.gethostname(), out)
+        assert snapshot(partial) == saved           # nothing deleted under the first run
+        gate.touch()
+        assert first.wait(timeout=120) == 0, first.stderr.read()
+    finally:
+        if first.poll() is None:
+            first.kill()
+    assert not partial.exists() and not store.lock_path(out).exists()
+    result = opened(out)
+    assert result.attrs["sweep_config"] == DOE
+    xr.testing.assert_equal(result, reference["doe"])   # values; titles name other files
+
+
+# --------------------------------------------------------------------------- untrusted state
+
+def test_chunks_without_a_manifest_are_never_resumed(tmp_path, monkeypatch, reference):
+    out = tmp_path / "out.nc"
+    partial = interrupted(GRID, out, 4, monkeypatch)
+    (partial / "manifest.json").unlink()           # e.g. kill -9 during the clean-up
+    res = run(OTHER, out)                          # another gamma range
+    assert (res.discarded_chunks, res.resumed_chunks, res.computed_points) == (4, 0, 72)
+    xr.testing.assert_identical(opened(out), reference["other"])
+
+
+def test_leftovers_of_an_interrupted_cleanup_never_replace_a_good_output(tmp_path,
+                                                                        monkeypatch):
+    out = tmp_path / "out.nc"
+    run(GRID, out)
+    before = out.read_bytes()
+    partial = interrupted(GRID, out, 4, monkeypatch, restart=True)
+    (partial / "manifest.json").unlink()
+    with pytest.raises(store.ResumeError, match="different configuration"):
+        run(OTHER, out)
+    assert out.read_bytes() == before and not partial.exists()
+    interrupted(GRID, out, 4, monkeypatch, restart=True)
+    (partial / "manifest.json").unlink()
+    assert run(GRID, out).up_to_date and not partial.exists()
+    assert out.read_bytes() == before
+
+
+def _rewrite_chunk(path, change):
+    """Rewrite a chunk file as a valid npz whose content ``change`` altered."""
+    with np.load(path) as z:
+        data = {k: z[k] for k in z.files}
+    change(data)
+    with open(path, "wb") as fh:
+        np.savez(fh, **data)
+
+
+def test_damaged_or_foreign_chunks_are_recomputed(tmp_path, monkeypatch, reference):
+    out = tmp_path / "out.nc"
+    partial = interrupted(GRID, out, 7, monkeypatch)
+    chunk = [partial / f"chunk_{i:07d}.npz" for i in range(7)]
+    raw = chunk[0].read_bytes()
+    chunk[0].write_bytes(raw[:len(raw) // 2])                       # truncated
+    raw = bytearray(chunk[1].read_bytes())
+    with np.load(chunk[1]) as z:
+        at = bytes(raw).find(z["e_numeric"][3:].tobytes())
+    raw[at] ^= 0x10                                                  # one bit flipped
+    chunk[1].write_bytes(bytes(raw))
+
+    def flip_value(data):                    # silent corruption behind a valid container
+        data["e_ord1"] = data["e_ord1"].copy()
+        data["e_ord1"][0] += 1e-9
+
+    _rewrite_chunk(chunk[2], flip_value)
+    chunk[4].replace(chunk[3])                                       # misplaced
+    foreign = store.PartialStore(tmp_path / "x.nc", {"config_sha256": "another",
+                                                     "variables": ["e_numeric"]})
+    with np.load(chunk[5]) as z:
+        foreign.dir = partial                                        # from another run
+        foreign.save_chunk(5, 50, 60, {k: z[k] for k in z.files if k != "__meta__"},
+                           (1.0, 1.0))
+    logged = []
+    res = run(GRID, out, log=logged.append, quiet=False)
+    assert (res.resumed_chunks, res.recomputed_chunks) == (1, 5)
+    line = [m for m in logged if m.startswith("resume:")]
+    assert line == ["resume: recomputed 5 saved chunks that failed verification (1 checksum "
+                    "mismatch, 1 from another run, 1 misplaced, 2 unreadable)"]
+    xr.testing.assert_identical(opened(out), reference["grid"])
+
+
+# --------------------------------------------------------------------------- preflight
+
+HUGE = GRID.replace("gamma = {start = 0.0, stop = 0.2, num = 9}",
+                    "gamma = {start = 0.0, stop = 0.2, num = 1000000}").replace(
+    "gtilde = [0.0, 0.05, 1.0, 10.0]", "gtilde = {start = 0.0, stop = 10.0, num = 1000000}")
+
+
+def test_a_huge_design_is_refused_before_anything_is_allocated(tmp_path, monkeypatch,
+                                                              capsys):
+    def forbidden(*args, **kwargs):
+        raise AssertionError("a refused design must not be generated or stored")
+
+    monkeypatch.setattr(design.GridDesign, "points", forbidden)
+    monkeypatch.setattr(store, "NetCDFWriter", forbidden)
+    cfg = tmp_path / "huge.toml"
+    cfg.write_text(HUGE)
+    out = tmp_path / "huge.nc"
+    assert cli.main(["run", str(cfg), "-o", str(out)]) == 1
+    one_line_error(capsys.readouterr().err, "2,000,000,000,000 points",
+                   f"{limits.MAX_POINTS:,}", "--force")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["huge.toml"]
+    assert cli.main(["validate", str(cfg), "--no-estimate"]) == 1
+    captured = capsys.readouterr()
+    assert "points: 2,000,000,000,000 in 200,000,000,000 chunks of <= 10" in captured.out
+    one_line_error(captured.err, "would refuse", "--max-points")
+    # a limit of one's own, in bytes: the small grid is refused too
+    assert cli.main(["run", str(cfg).replace("huge", "x"), "--max-size", "1k"]) == 1
+
+
+def test_the_chunk_list_is_lazy():
+    chunks = design.Chunks(10 ** 12, 7)
+    assert len(chunks) == -(-10 ** 12 // 7)
+    assert chunks[0] == (0, 7) and chunks[-1] == (10 ** 12 - 10 ** 12 % 7, 10 ** 12)
+    assert list(design.Chunks(10, 4)) == design.chunk_bounds(10, 4) == [(0, 4), (4, 8),
+                                                                         (8, 10)]
+    assert design.Chunks(10, 4)[1:] == [(4, 8), (8, 10)]
+    with pytest.raises(ValueError, match=">= 1"):
+        design.Chunks(10, 0)
+
+
+def test_preflight_sizes_and_limits():
+    cfg = config.loads(GRID)
+    d = design.build(cfg.design)
+    pre = runner.preflight(cfg, "/tmp/x.nc")
+    assert (pre.n_points, pre.n_chunks, pre.value_bytes) == (72, 8, 8 + 8 + 1)
+    assert pre.output_bytes == 72 * 17 + 8 * (1 + 2 + 9 + 4)
+    assert pre.disk_needed == pre.output_bytes + 72 * 17 + 8 * limits.CHUNK_FILE_OVERHEAD
+    assert pre.refusal(preflight.Limits()) is None
+    assert "--max-points" in pre.refusal(preflight.Limits(max_points=71))
+    assert "--max-size" in pre.refusal(preflight.Limits(max_bytes=100))
+    assert "--chunk-size" in pre.refusal(preflight.Limits(max_chunks=7))
+    rate, n = preflight.calibrate(d, lambda *p: None, seconds=0.01)
+    assert rate > 0 and n == 72
+
+
+def test_validate_prints_the_preflight_and_an_estimate(tmp_path, capsys):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    assert cli.main(["validate", str(cfg)]) == 0
+    out = capsys.readouterr().out
+    for part in ("points: 72 in 8 chunks of <= 10", "output: <= ", "disk: needs <= ",
+                 "free", "estimated time: ", "points/s (calibration on 72 points)"):
+        assert part in out, part
+    run(GRID, tmp_path / "c.nc")           # the last run of this output gives the rate
+    assert cli.main(["validate", str(cfg), "-o", str(tmp_path / "c.nc")]) == 0
+    assert f"(last run of {tmp_path / 'c.nc'})" in capsys.readouterr().out
+
+
+# --------------------------------------------------------------------------- the environment
+
+@pytest.fixture
+def tmpfs(tmp_path):
+    """``mount(size, *options)`` mounts a fresh tmpfs; skips where that is not allowed."""
+    mounted = []
+
+    def mount(name, size, *options):
+        if os.geteuid() != 0:
+            pytest.skip("mounting a small tmpfs needs root")
+        target = tmp_path / name
+        target.mkdir()
+        try:
+            res = subprocess.run(["mount", "-t", "tmpfs", "-o", ",".join((f"size={size}",)
+                                                                          + options),
+                                  "tmpfs", str(target)], capture_output=True, text=True)
+        except FileNotFoundError:
+            pytest.skip("no mount command to make a small tmpfs")
+        if res.returncode != 0:
+            pytest.skip(f"cannot mount a tmpfs here: {res.stderr.strip()}")
+        mounted.append(target)
+        return target
+
+    yield mount
+    for target in reversed(mounted):
+        subprocess.run(["umount", "-l", str(target)], capture_output=True)
+
+
+def remount(target, *options):
+    subprocess.run(["mount", "-o", ",".join(("remount",) + options), str(target)],
+                   check=True, capture_output=True)
+
+
+def test_too_little_free_disk_is_refused_before_starting(tmpfs):
+    fs = tmpfs("small", "256k")
+    with pytest.raises(runner.RunError, match=f"not enough free disk in {fs}") as info:
+        run(DOE, fs / "out.nc")
+    assert "--force" in str(info.value) and list(fs.iterdir()) == []
+
+
+def test_a_full_disk_keeps_the_finished_chunks_and_resume_completes(tmpfs, reference):
+    fs = tmpfs("full", "512k")
+    out = fs / "out.nc"
+    with pytest.raises(runner.RunError, match=f"no space left on the device of {fs}") as info:
+        run(DOE, out, force=True)
+    partial = store.partial_dir(out)
+    saved = sorted(p.name for p in partial.iterdir())
+    assert "finished chunks are kept" in str(info.value) and not out.exists()
+    assert saved[-1] == "manifest.json" and len(saved) >= 2       # chunks, nothing else
+    assert all(n.startswith("chunk_") and n.endswith(".npz") for n in saved[:-1])
+    remount(fs, "size=8m")                                         # space freed
+    res = run(DOE, out)
+    assert res.resumed_chunks == len(saved) - 1
+    xr.testing.assert_identical(opened(out), reference["doe"])
+
+
+def test_a_read_only_target_is_a_clear_error_and_the_output_survives(tmpfs, capsys):
+    fs = tmpfs("ro", "4m")
+    out = fs / "out.nc"
+    run(GRID, out)
+    before = out.read_bytes()
+    remount(fs, "ro")
+    cfg = fs.parent / "other.toml"
+    cfg.write_text(OTHER)
+    assert cli.main(["run", str(cfg), "-o", str(out), "--restart", "--quiet"]) == 1
+    one_line_error(capsys.readouterr().err, f"cannot write in {fs}", "Read-only file system")
+    assert out.read_bytes() == before and sorted(os.listdir(fs)) == ["out.nc"]
+
+
+def _closed_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_an_unreachable_scheduler_fails_fast_naming_the_address(tmp_path):
+    pytest.importorskip("distributed")
+    address = f"tcp://127.0.0.1:{_closed_port()}"
+    t0 = time.monotonic()
+    with pytest.raises(runner.RunError, match=f"cannot reach the Dask scheduler at "
+                                              f"'{address}'"):
+        run(GRID, tmp_path / "out.nc", scheduler=address, scheduler_timeout=0.5)
+    assert time.monotonic() - t0 < 20 and list(tmp_path.iterdir()) == []
+    with pytest.raises(runner.RunError, match="'nonsense'"):
+        run(GRID, tmp_path / "out.nc", scheduler="nonsense")
+
+
+# --------------------------------------------------------------------------- the command line
+
+def _non_sweep_netcdf(path):
+    with netCDF4.Dataset(path, "w") as nc:
+        nc.createDimension("x", 3)
+        nc.createVariable("v", "f8", ("x",))[:] = [1.0, 2.0, 3.0]
+
+
+@pytest.mark.parametrize("case", [
+    "not-utf8", "deep", "dev-zero", "oversized", "axis", "zarr", "long-name", "directory",
+    "chunk-negative", "chunk-zero", "info-not-sweep", "scheduler"])
+def test_input_faults_end_in_one_line(tmp_path, capsys, case):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    argv = ["run", str(cfg), "-o", str(tmp_path / "out.nc"), "--quiet"]
+    expect = {
+        "not-utf8": ("not UTF-8", "0xff", cfg),
+        "deep": ("nested deeper than 16 levels", cfg),
+        "dev-zero": ("/dev/zero", "larger than"),
+        "oversized": ("larger than the limit", cfg),
+        "axis": ("design.gamma.num", "1000000000000"),
+        "zarr": ("out.zarr", "unknown output format", ".nc"),
+        "long-name": ("output name too long", "255"),
+        "directory": ("out.nc is a directory",),
+        "chunk-negative": ("--chunk-size", "-5"),
+        "chunk-zero": ("--chunk-size", "'0'"),
+        "info-not-sweep": ("not a sweep output", "x.nc"),
+        "scheduler": ("cannot reach the Dask scheduler", "'nonsense'"),
+    }[case]
+    if case == "not-utf8":
+        cfg.write_bytes(b'title = "\xff"\n' + GRID.encode())
+    elif case == "deep":
+        cfg.write_text(GRID + "x = " + "[" * 3000 + "]" * 3000 + "\n")
+    elif case == "dev-zero":
+        argv[1] = "/dev/zero"
+    elif case == "oversized":
+        cfg.write_text(GRID + "#" * limits.CONFIG_MAX_BYTES)
+    elif case == "axis":
+        cfg.write_text(GRID.replace("num = 9", "num = 1000000000000"))
+    elif case == "zarr":
+        argv[3] = str(tmp_path / "out.zarr")
+    elif case == "long-name":
+        argv[3] = str(tmp_path / ("a" * 250 + ".nc"))
+    elif case == "directory":
+        (tmp_path / "out.nc").mkdir()
+        argv.append("--restart")
+    elif case == "chunk-negative":
+        argv += ["--chunk-size", "-5"]
+    elif case == "chunk-zero":
+        argv += ["--chunk-size", "0"]
+    elif case == "info-not-sweep":
+        _non_sweep_netcdf(tmp_path / "x.nc")
+        argv = ["info", str(tmp_path / "x.nc")]
+    elif case == "scheduler":
+        pytest.importorskip("distributed")
+        argv += ["--scheduler", "nonsense"]
+    if case.startswith("chunk-"):
+        with pytest.raises(SystemExit) as info:
+            cli.main(argv)
+        assert info.value.code == 2
+    else:
+        assert cli.main(argv) == 1
+    one_line_error(capsys.readouterr().err, *expect)
+    assert not (tmp_path / "out.nc.partial").exists()
+    assert not (tmp_path / "out.nc.lock").exists()
+
+
+def test_debug_shows_the_traceback(tmp_path, capsys):
+    cfg = tmp_path / "c.toml"
+    cfg.write_bytes(b"\xff")
+    with pytest.raises(config.ConfigError, match="not UTF-8"):
+        cli.main(["--debug", "validate", str(cfg)])
+    with pytest.raises(config.ConfigError):
+        cli.main(["validate", str(cfg), "--debug"])
+
+
+# --------------------------------------------------------------------------- signals
+
+def test_a_signal_during_the_cleanup_is_not_an_interruption(tmp_path, monkeypatch, capsys,
+                                                            reference):
+    real = store.PartialStore.remove
+
+    def interrupted_remove(self):
+        next(self.dir.glob("chunk_*.npz")).unlink()      # partly cleaned up, then killed
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(store.PartialStore, "remove", interrupted_remove)
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    assert cli.main(["run", str(cfg), "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "interrupted:" not in err and "sweep: interrupted" not in err
+    assert f"{out} is complete" in err
+    assert store.partial_dir(out).exists()
+    monkeypatch.setattr(store.PartialStore, "remove", real)
+    xr.testing.assert_equal(opened(out), reference["grid"])
+    res = run(GRID, out)                                 # leftovers go, the output stays
+    assert res.up_to_date and res.discarded_chunks == 7
+    assert not store.partial_dir(out).exists()
+
+
+def test_signals_wait_for_the_end_of_the_publication():
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    reached = False
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with runner._signals_deferred():
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(0.01)
+                reached = True                           # not cut short by the signal
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert reached
