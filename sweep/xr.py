@@ -132,7 +132,10 @@ def _field_attrs(name: str) -> dict:
     f = registry.FIELDS[name]
     attrs = {"long_name": f.long_name, "description": f.description}
     if f.flags:  # CF flags carry no units
-        attrs["flag_values"] = np.array(list(f.flags.values()), dtype=f.dtype)
+        # Attributes have no boolean type: a boolean's flag values are the bytes 0 and 1
+        # (xarray writes the variable itself as such bytes, as sweep's files do).
+        dtype = np.int8 if f.dtype == np.bool_ else f.dtype
+        attrs["flag_values"] = np.array(list(f.flags.values()), dtype=dtype)
         attrs["flag_meanings"] = " ".join(f.flags)
     elif f.dtype != np.bool_:
         attrs["units"] = f.units

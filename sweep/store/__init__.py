@@ -37,7 +37,8 @@ the values are computed.
 from __future__ import annotations
 
 from sweep.store.layout import Layout, Writer, flat_blocks
-from sweep.store.metadata import REPORT, coordinate_attrs, variable_spec
+from sweep.store.metadata import (CONVENTIONS, REPORT, SPACINGS, coordinate_attrs,
+                                  index_dtype, variable_spec)
 from sweep.store.netcdf import (CHUNK_CACHE_BYTES, COMPLEVEL, STORAGE_CHUNK, NetCDFWriter,
                                 commit)
 from sweep.store.partial import MANIFEST_FORMAT, PartialStore, ResumeError, partial_dir
@@ -47,5 +48,5 @@ __all__ = [
     "Layout", "Writer", "variable_spec", "coordinate_attrs", "PartialStore", "ResumeError",
     "NetCDFWriter", "commit", "read_global_attrs", "flat_blocks", "summarize",
     "partial_dir", "MANIFEST_FORMAT", "REPORT", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK",
-    "COMPLEVEL",
+    "COMPLEVEL", "CONVENTIONS", "SPACINGS", "index_dtype",
 ]
