@@ -311,8 +311,11 @@ _INTEGRATOR_OPTIONS = (
            "a number >= 2 (steps per half period of the stiffest linearised motion)"),
     Option("rest_tol", 1e-8, lambda v: _is_number(v) and v > 0,
            "a number > 0 (rest criterion of the report, Sec. 3)"),
-    Option("max_steps", 200_000, lambda v: _is_number(v) and v >= 1 and float(v).is_integer(),
-           "an integer >= 1 (step budget per point, every march included)"),
+    # n_steps (FIELDS, int32) exceeds max_steps by a few event-refinement steps at most:
+    # the bound keeps it exact, far from 2**31.
+    Option("max_steps", 200_000, lambda v: _is_number(v) and 1 <= v <= 2 ** 30
+           and float(v).is_integer(),
+           "an integer in [1, 2**30] (step budget per point, every march included)"),
     Option("refine", True, lambda v: isinstance(v, (bool, np.bool_)),
            "true or false (check points whose error indicator is above the target against "
            "a companion march and march them again, finer; false: one fixed-step march)"),
@@ -426,14 +429,15 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
           METHODS["numeric"].description, fill_value=math.nan),
     Field("sticks", np.dtype(np.bool_), "bead does not rebound",
           "true if the impact ends without rebound, e = 0 (Algorithm 1, phase 3: v = 0 with "
-          "u > 0, or converged to rest)", derived=_sticks),
+          "u > 0, or converged to rest); false if it rebounds or the point is invalid "
+          "(status)", derived=_sticks, flags={"rebounds": 0, "sticks": 1}),
     Field("t_f", np.dtype(np.float64), "impact duration T_f",
           "scaled time T_f at the end of the impact (report eq. (3)), in units of T of "
           "eq. (2)", fill_value=math.nan),
     Field("u_max", np.dtype(np.float64), "maximum compression u_M",
           "scaled maximum compression u(tau_0) where v = 0 (Algorithm 1, phase 1), in units "
           "of delta = v0 T of eq. (2)", fill_value=math.nan),
-    Field("n_steps", np.dtype(np.int64), "number of integration steps",
+    Field("n_steps", np.dtype(np.int32), "number of integration steps",
           "Runge-Kutta steps taken to integrate eq. (4) for this point"),
     Field("status", np.dtype(np.int8), "integration status",
           "why the numerical computation of the point ended (Algorithm 1): "

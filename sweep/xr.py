@@ -62,9 +62,10 @@ def _method_attrs(method: str, options: dict) -> dict:
     m = registry.method(method)
     used = m.check_options({k: v for k, v in options.items() if k != "parallel"})
     prefix = "integrator_" if m.integrates else "option_"
+    # netCDF attributes have no boolean type: flags are stored as 0 / 1.
     return {"long_name": m.long_name, "units": "1", "method": method,
             "equation": m.equation, "description": m.description,
-            **{prefix + k: v for k, v in used.items()}}
+            **{prefix + k: (int(v) if isinstance(v, bool) else v) for k, v in used.items()}}
 
 
 def _apply(block: Callable, args: tuple, kwargs: dict, dtypes: list) -> Any:
@@ -132,7 +133,10 @@ def _field_attrs(name: str) -> dict:
     f = registry.FIELDS[name]
     attrs = {"long_name": f.long_name, "description": f.description}
     if f.flags:  # CF flags carry no units
-        attrs["flag_values"] = np.array(list(f.flags.values()), dtype=f.dtype)
+        # Attributes have no boolean type: a boolean's flag values are the bytes 0 and 1
+        # (xarray writes the variable itself as such bytes, as sweep's files do).
+        dtype = np.int8 if f.dtype == np.bool_ else f.dtype
+        attrs["flag_values"] = np.array(list(f.flags.values()), dtype=dtype)
         attrs["flag_meanings"] = " ".join(f.flags)
     elif f.dtype != np.bool_:
         attrs["units"] = f.units

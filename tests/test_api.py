@@ -15,7 +15,7 @@ def test_broadcast_shape_and_types():
     for name in ("e", "sticks", "t_f", "u_max", "n_steps", "status"):
         assert getattr(r, name).shape == (3, 4), name
     assert r.e.dtype == np.float64 and r.sticks.dtype == bool
-    assert r.status.dtype == np.int8 and r.n_steps.dtype == np.int64
+    assert r.status.dtype == np.int8 and r.n_steps.dtype == np.int32
     e = sweep.cor(1.5, 1.5, np.array([[1e-3], [1e-2], [1e-1]]), np.array([0.0, 0.05, 1.0, 10.0]), steps=24)
     np.testing.assert_array_equal(e, r.e)
 

@@ -201,13 +201,23 @@ def test_attributes():
         same_bits(ds[name].values, getattr(ref, name))
 
 
+def test_integrate_result_writes_to_netcdf(tmp_path):
+    # Flag attributes of the boolean sticks are bytes: netCDF has no boolean attribute.
+    ds = sx.integrate(1.5, 1.5, gamma_da(), 1.0, steps=STEPS)
+    assert ds.sticks.attrs["flag_meanings"] == "rebounds sticks"
+    ds.to_netcdf(tmp_path / "i.nc")
+    with xr.open_dataset(tmp_path / "i.nc") as back:
+        assert back.sticks.dtype == bool and back.n_steps.dtype == np.int32
+        xr.testing.assert_identical(back.load(), ds)
+
+
 def test_scalars():
     e = sx.cor(1.5, 1.5, 0.05, 1.0, steps=STEPS)
     assert e.dims == () and float(e) == sweep.cor(1.5, 1.5, 0.05, 1.0, steps=STEPS)
     assert float(sx.cor(1.5, 1.5, 0.05, 1.0, method="sp")) == sweep.cor(1.5, 1.5, 0.05, 1.0,
                                                                         "sp")
     ds = sx.integrate(1.5, 1.5, 0.05, 1.0, steps=STEPS)
-    assert int(ds.status) == sweep.Status.OK and ds.n_steps.dtype == np.int64
+    assert int(ds.status) == sweep.Status.OK and ds.n_steps.dtype == np.int32
     with pytest.raises(ValueError, match="gamma"):  # a scalar call raises, as sweep.cor does
         sx.cor(1.5, 1.5, -0.1, 1.0).values
 

@@ -41,7 +41,8 @@ the values are computed.
 from __future__ import annotations
 
 from sweep.store.layout import Layout, Writer, flat_blocks
-from sweep.store.metadata import REPORT, coordinate_attrs, variable_spec
+from sweep.store.metadata import (CONVENTIONS, REPORT, SPACINGS, coordinate_attrs,
+                                  index_dtype, variable_spec)
 from sweep.store.netcdf import (CHUNK_CACHE_BYTES, COMPLEVEL, STORAGE_CHUNK, SUFFIXES,
                                 NetCDFWriter, commit)
 from sweep.store.partial import (CHUNK_FORMAT, MANIFEST_FORMAT, LockError, OutputLock,
@@ -54,5 +55,5 @@ __all__ = [
     "NetCDFWriter", "commit", "read_global_attrs", "flat_blocks", "summarize",
     "partial_dir", "MANIFEST_FORMAT", "REPORT", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK",
     "COMPLEVEL", "SUFFIXES", "CHUNK_FORMAT", "LockError", "OutputLock", "lock_path",
-    "partial_bytes", "remove_untrusted",
+    "partial_bytes", "remove_untrusted", "CONVENTIONS", "SPACINGS", "index_dtype",
 ]

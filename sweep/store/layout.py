@@ -29,13 +29,18 @@ class Layout:
     axes : dict
         Coordinate variable per dimension (grid designs); empty for scattered designs.
     point_coords : tuple of str
-        Coordinates stored per point along the single dimension (scattered designs).
+        Coordinates stored per point along the single dimension (scattered designs), which
+        is then indexed by an integer coordinate 0..n-1 of its own name.
+    spacing : dict
+        Spacing of each grid axis (name -> one of
+        :data:`sweep.store.metadata.SPACINGS`); axes absent here carry none.
     """
 
     dims: tuple
     shape: tuple
     axes: dict
     point_coords: tuple = ()
+    spacing: dict = dataclasses.field(default_factory=dict)
 
     @property
     def size(self) -> int:

@@ -1,12 +1,29 @@
 """CF metadata of a sweep dataset: what every coordinate and stored variable means.
 
 Owns the CF attributes (``long_name``, ``units``, ``description`` citing the report's
-equation, ``flag_values`` / ``flag_meanings``) and the dtype of every variable a sweep can
-store. :func:`variable_spec` is the single entry point the rest of the package calls for
-these facts (the runner for dtypes, the writer for attributes, the summary for the status
-flags), so that where the facts live can change without touching the callers.
+equation, ``_FillValue``, ``flag_values`` / ``flag_meanings``, the ``spacing`` of grid
+axes) and the storage dtype of every variable a sweep can store. :func:`variable_spec` is
+the single entry point the rest of the package calls for these facts (the runner for
+dtypes, the writer for attributes, the summary for the flags), so that where the facts
+live can change without touching the callers.
 
 All quantities are dimensionless (scaled by eq. (2) of the report), hence ``units = "1"``.
+
+Conventions (CF-1.8, the newest version the ``cfchecker`` package verifies):
+
+* ``_FillValue`` (NaN) on every variable that can hold NaN: the CoR of every method, the
+  error fields and the float fields whose :class:`sweep.registry.Field` has a
+  ``fill_value``. A fill value marks an invalid point (invalid input, status ``invalid``,
+  or a method used outside its domain): there is no value there. It is NaN itself, so
+  xarray reads the data back unchanged, decoded or not. Integer variables have no
+  ``_FillValue`` (every value is meaningful), so xarray never turns them into floats.
+* Flag variables (``status``, ``sticks``) carry ``flag_values`` (of the variable's type) and
+  ``flag_meanings`` and no ``units``: a flag is a category, not a quantity (CF 3.5).
+  netCDF has no boolean type: a boolean field is stored as a byte flag with the values 0
+  and 1, its meanings read from the registry.
+* Grid coordinates carry ``spacing``: ``"linear"`` or ``"log"`` for a range
+  ``{start, stop, num}``, ``"irregular"`` for a list of values, ``"single"`` for one value.
+* Designs of experiments index their ``point`` dimension with a coordinate 0..n-1.
 
 The facts themselves (long names, descriptions, dtypes, flags) live in
 :mod:`sweep.registry`; this module only turns them into netCDF attributes.
@@ -21,30 +38,52 @@ import numpy as np
 from sweep import registry
 from sweep.registry import REPORT
 
-__all__ = ["REPORT", "variable_spec", "coordinate_attrs"]
+__all__ = ["REPORT", "CONVENTIONS", "SPACINGS", "variable_spec", "coordinate_attrs",
+           "index_dtype"]
+
+#: The ``Conventions`` global attribute: the newest CF version the ``cfchecker`` package
+#: (4.1) knows; the files use nothing of later versions.
+CONVENTIONS = "CF-1.8"
+
+#: Values of the ``spacing`` attribute of a grid coordinate.
+SPACINGS = ("linear", "log", "irregular", "single")
+
+#: The e of every method is float64 with the fill of the integrator's e (NaN at an invalid
+#: point); error fields are differences of two of them.
+_E = registry.FIELDS["e"]
+
+
+def _with_fill(dtype: np.dtype, attrs: dict, fill) -> tuple[np.dtype, dict]:
+    """Add ``_FillValue`` (in the variable's dtype, as CF requires) unless ``fill`` is None."""
+    if fill is not None:
+        attrs["_FillValue"] = dtype.type(fill)
+    return dtype, attrs
 
 
 def _method_spec(method: registry.Method) -> tuple[np.dtype, dict]:
-    return np.dtype(np.float64), {"long_name": method.long_name, "units": "1",
-                                  "description": method.description}
+    return _with_fill(_E.dtype, {"long_name": method.long_name, "units": "1",
+                                 "description": method.description}, _E.fill_value)
 
 
 def _error_spec(method: registry.Method) -> tuple[np.dtype, dict]:
-    return np.dtype(np.float64), {
+    return _with_fill(_E.dtype, {
         "long_name": f"error of the {method.long_name.split(', ', 1)[1]}",
         "units": "1",
         "description": f"e_{method.name} - e_numeric: the approximation "
                        f"({method.description}) minus the numerical CoR "
-                       "(report eq. (3), Algorithm 1)"}
+                       "(report eq. (3), Algorithm 1)"}, _E.fill_value)
 
 
 def _field_spec(field: registry.Field) -> tuple[np.dtype, dict]:
-    attrs = {"long_name": field.long_name, "units": field.units,
-             "description": field.description}
-    if field.flags:
-        attrs["flag_values"] = np.array(list(field.flags.values()), dtype=field.dtype)
+    # netCDF has no boolean: a boolean field is a byte flag variable (0 false, 1 true).
+    dtype = np.dtype(np.int8) if field.dtype == np.bool_ else field.dtype
+    attrs = {"long_name": field.long_name, "description": field.description}
+    if field.flags:  # a category, not a quantity: no units (CF 3.5)
+        attrs["flag_values"] = np.array(list(field.flags.values()), dtype=dtype)
         attrs["flag_meanings"] = " ".join(field.flags)
-    return field.dtype, attrs
+    else:
+        attrs["units"] = field.units
+    return _with_fill(dtype, attrs, field.fill_value)
 
 
 def variable_spec(name: str) -> tuple[np.dtype, dict]:
@@ -59,9 +98,11 @@ def variable_spec(name: str) -> tuple[np.dtype, dict]:
     Returns
     -------
     dtype : numpy.dtype
+        Storage dtype (a boolean field is stored as int8).
     attrs : dict
-        ``long_name``, ``units``, ``description`` and, for flags, ``flag_values`` /
-        ``flag_meanings``.
+        ``long_name``, ``description``; ``units`` except for flags, which have
+        ``flag_values`` / ``flag_meanings`` instead; ``_FillValue`` (NaN, a numpy scalar
+        of ``dtype``) on variables that can hold NaN.
 
     Raises
     ------
@@ -77,18 +118,47 @@ def variable_spec(name: str) -> tuple[np.dtype, dict]:
     raise KeyError(f"unknown output variable {name!r}")
 
 
-def coordinate_attrs(name: str) -> dict:
-    """CF attributes of a coordinate (``alpha``, ``beta``, ``gamma`` or ``gtilde``).
+#: The index coordinate of the ``point`` dimension of designs of experiments.
+_POINT = {"long_name": "design point index", "units": "1",
+          "description": "position of the point in the design of experiments, from 0: "
+                         "point i is the i-th point of the seeded sequence, whatever the "
+                         "chunking"}
+
+
+def coordinate_attrs(name: str, spacing: str | None = None) -> dict:
+    """CF attributes of a coordinate.
 
     Parameters
     ----------
     name : str
-        One of the four scaled parameters of eq. (2).
+        One of the four scaled parameters of eq. (2), or ``point`` (the index of a design
+        of experiments).
+    spacing : str, optional
+        Spacing of a grid axis, one of :data:`SPACINGS`.
 
     Returns
     -------
     dict
-        ``long_name``, ``units`` and ``description``.
+        ``long_name``, ``units`` and ``description``; ``spacing`` if given.
+
+    Raises
+    ------
+    ValueError
+        If ``spacing`` is not one of :data:`SPACINGS`.
     """
-    p = registry.PARAMETERS[name]
-    return {"long_name": p.long_name, "units": p.units, "description": p.description}
+    if name == "point":
+        attrs = dict(_POINT)
+    else:
+        p = registry.PARAMETERS[name]
+        attrs = {"long_name": p.long_name, "units": p.units, "description": p.description}
+    if spacing is not None:
+        if spacing not in SPACINGS:
+            raise ValueError(f"spacing must be one of {SPACINGS}, got {spacing!r}")
+        attrs["spacing"] = spacing
+    return attrs
+
+
+def index_dtype(size: int) -> np.dtype:
+    """dtype of the ``point`` index of a design of ``size`` points: int32 (a CF-1.8 type)
+    when it fits, int64 beyond."""
+    return np.dtype(np.int32 if size <= np.iinfo(np.int32).max + 1 else np.int64)

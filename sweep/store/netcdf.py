@@ -7,8 +7,8 @@ settings; and :func:`commit`, the fsync + rename that makes the output appear at
 
 The file opens with a plain ``xarray.open_dataset``: grid designs have dimensions
 (alpha, beta, gamma, gtilde) with coordinate variables, scattered designs a ``point``
-dimension with the four parameters as (point) coordinates. Attributes come from
-:mod:`sweep.store.metadata`.
+dimension, indexed 0..n-1, with the four parameters as (point) coordinates. Attributes,
+fill values and storage dtypes come from :mod:`sweep.store.metadata`.
 
 May import: numpy, netCDF4 and the store's own :mod:`~sweep.store.layout` and
 :mod:`~sweep.store.metadata`. Nothing of numba, the kernels or any floor above the store.
@@ -24,7 +24,7 @@ import netCDF4
 import numpy as np
 
 from sweep.store.layout import Layout, flat_blocks
-from sweep.store.metadata import coordinate_attrs, variable_spec
+from sweep.store.metadata import coordinate_attrs, index_dtype, variable_spec
 
 __all__ = ["NetCDFWriter", "commit", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK", "COMPLEVEL",
            "SUFFIXES"]
@@ -77,20 +77,23 @@ class NetCDFWriter:
         self.layout = layout
         self.variables = tuple(variables)
         self._nc = netCDF4.Dataset(self.path, "w", format="NETCDF4")
+        # No pre-fill pass: every element is written. _FillValue attributes still apply.
+        self._nc.set_fill_off()
         try:
             self._define(attrs or {})
         except BaseException:
             self._nc.close()
             raise
 
-    def _create(self, name, dtype, dims, chunks):
-        nc_dtype = np.int8 if dtype == np.bool_ else dtype
-        # fill_value=False: no pre-fill pass (every element is written) and no _FillValue
-        # attribute, so xarray reads the values back exactly (NaN means an invalid point).
-        var = self._nc.createVariable(name, nc_dtype, dims, zlib=True, complevel=COMPLEVEL,
-                                      shuffle=True, chunksizes=chunks, fill_value=False)
+    def _create(self, name, dtype, dims, chunks, attrs):
+        attrs = dict(attrs)
+        # _FillValue must be set when the variable is created; False: no _FillValue.
+        fill = attrs.pop("_FillValue", False)
+        var = self._nc.createVariable(name, dtype, dims, zlib=True, complevel=COMPLEVEL,
+                                      shuffle=True, chunksizes=chunks, fill_value=fill)
         var.set_var_chunk_cache(size=CHUNK_CACHE_BYTES)
         var.set_auto_maskandscale(False)
+        var.setncatts(attrs)
         return var
 
     def _define(self, attrs):
@@ -101,19 +104,18 @@ class NetCDFWriter:
         chunks = _storage_chunks(lay.shape)
         for name, values in lay.axes.items():
             var = nc.createVariable(name, np.float64, (name,), fill_value=False)
-            var.setncatts(coordinate_attrs(name))
+            var.setncatts(coordinate_attrs(name, lay.spacing.get(name)))
             var[:] = np.asarray(values, dtype=np.float64)
+        if lay.point_coords:  # the index of the single dimension, written chunk by chunk
+            self._create(lay.dims[0], index_dtype(lay.size), lay.dims, chunks,
+                         coordinate_attrs(lay.dims[0]))
         for name in lay.point_coords:
-            var = self._create(name, np.dtype(np.float64), lay.dims, chunks)
-            var.setncatts(coordinate_attrs(name))
+            self._create(name, np.dtype(np.float64), lay.dims, chunks, coordinate_attrs(name))
         for name in self.variables:
             dtype, vattrs = variable_spec(name)
-            var = self._create(name, dtype, lay.dims, chunks)
-            if dtype == np.bool_:
-                vattrs = dict(vattrs, dtype="bool")  # xarray decodes int8 + this to bool
             if lay.point_coords:
                 vattrs = dict(vattrs, coordinates=" ".join(lay.point_coords))
-            var.setncatts(vattrs)
+            self._create(name, dtype, lay.dims, chunks, vattrs)
         self.set_attrs(attrs)
 
     def set_attrs(self, attrs: Mapping[str, Any]) -> None:
@@ -154,13 +156,14 @@ class NetCDFWriter:
             if points is None:
                 raise ValueError("per-point coordinates are required for this layout")
             todo.update({k: points[k] for k in self.layout.point_coords})
+            todo[self.layout.dims[0]] = np.arange(start, stop)
         for name, arr in todo.items():
             var = self._nc.variables[name]
             arr = np.asarray(arr)
             if arr.shape != (stop - start,):
                 raise ValueError(f"{name}: expected {stop - start} values, got {arr.shape}")
-            if arr.dtype == np.bool_:
-                arr = arr.view(np.int8)
+            if arr.dtype != var.dtype:  # booleans -> byte flags; no value may change
+                arr = _cast_exactly(name, arr, var.dtype)
             for sl, lo, hi in flat_blocks(self.layout.shape, start, stop):
                 block = arr[lo - start:hi - start]
                 var[sl] = block.reshape(tuple(s.stop - s.start for s in sl))
@@ -170,6 +173,14 @@ class NetCDFWriter:
         nc, self._nc = self._nc, None
         if nc is not None and nc.isopen():
             nc.close()
+
+
+def _cast_exactly(name: str, arr: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """``arr`` in the storage ``dtype``, refusing a conversion that would change a value."""
+    out = arr.astype(dtype)
+    if not np.array_equal(out, arr, equal_nan=out.dtype.kind == "f"):
+        raise ValueError(f"{name}: values do not fit the stored type {dtype}")
+    return out
 
 
 def _fsync_path(path, directory=False):

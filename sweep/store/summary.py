@@ -25,7 +25,9 @@ __all__ = ["summarize", "read_global_attrs"]
 #: Global attributes listed under "settings" by :func:`summarize` (prefixes).
 _SETTINGS = ("integrator_", "options_", "design", "chunk_size", "n_points", "sweep_version",
              "numba_version", "numpy_version", "run_time", "compute_time",
-             "points_per_second", "date_created", "sweep_config_sha256")
+             "points_per_second", "date_created", "sweep_config_sha256", "sweep_command",
+             "compile_time", "kernel_time", "numba_num_threads", "numba_threading_layer",
+             "executor")
 
 
 def read_global_attrs(path: str | os.PathLike) -> dict[str, Any] | None:
@@ -90,7 +92,7 @@ def summarize(path: str | os.PathLike) -> str:
         lines += [_coordinate_line(name, nc.variables[name]) for name in coord_names]
         lines.append("variables:")
         for name, var in nc.variables.items():
-            if name in coord_names:
+            if name in coord_names or name in nc.dimensions:  # the point index: see dims
                 continue
             lines.append(f"  {name:<20} {var.getncattr('long_name')}")
             lines.append("      " + _stats(name, var))
@@ -111,21 +113,26 @@ def _coordinate_line(name, var):
     lo, hi = math.inf, -math.inf
     for block in _iter_flat(var, var.shape):
         lo, hi = min(lo, float(block.min())), max(hi, float(block.max()))
-    return f"  {name:<8} [{lo:.6g}, {hi:.6g}]  {var.getncattr('long_name')}"
+    # One value (a size-1 axis, or a parameter a design of experiments fixes) is shown once.
+    values = f"= {lo:.6g}" if lo == hi else f"[{lo:.6g}, {hi:.6g}]"
+    if "spacing" in var.ncattrs() and lo != hi:
+        values += f" ({var.getncattr('spacing')})"
+    return f"  {name:<8} {values}  {var.getncattr('long_name')}"
 
 
 def _stats(name, var):
-    if name == "status":
-        return _status_stats(var)
-    if name == "sticks":
-        return _flag_stats(var)
+    try:
+        attrs = variable_spec(name)[1]
+    except KeyError:
+        attrs = {}
+    if "flag_values" in attrs:
+        return _flag_stats(attrs, var)
     return _value_stats(name, var)
 
 
-def _status_stats(var):
+def _flag_stats(attrs, var):
     # The codes come from variable_spec, the store's one source of them, so the summary
     # cannot drift from what the writer declares in flag_values / flag_meanings.
-    attrs = variable_spec("status")[1]
     values = np.asarray(attrs["flag_values"], dtype=np.int64)
     size = int(values.max()) + 1
     counts = np.zeros(size, dtype=np.int64)
@@ -133,14 +140,6 @@ def _status_stats(var):
         counts += np.bincount(block.astype(np.int64), minlength=size)[:size]
     return ", ".join(f"{meaning}: {c}"
                      for meaning, c in zip(attrs["flag_meanings"].split(), counts[values]))
-
-
-def _flag_stats(var):
-    n = t = 0
-    for block in _iter_flat(var, var.shape):
-        n += block.size
-        t += int(np.count_nonzero(block))
-    return f"true: {t} of {n} ({100.0 * t / max(n, 1):.3g}%)"
 
 
 def _value_stats(name, var):

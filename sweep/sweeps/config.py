@@ -194,10 +194,14 @@ class GridSpec:
     ----------
     axes : tuple of tuple of float
         Coordinate values per parameter, in :data:`PARAMETERS` order.
+    spacing : tuple of str
+        How each axis is spaced, in :data:`PARAMETERS` order (see :func:`_axis_spacing`);
+        empty if unknown.
     """
 
     axes: tuple
     kind: str = "grid"
+    spacing: tuple = ()
 
     @property
     def shape(self):
@@ -304,10 +308,22 @@ def _grid_list(tab, key, value):
     return tuple(float(v) for v in value)
 
 
+def _axis_spacing(value, values):
+    """Spacing of a parsed grid axis: "single" (one value), the ``spacing`` of a range
+    table ("linear" by default), or "irregular" (a list: its spacing is not guessed)."""
+    if len(values) == 1:
+        return "single"
+    if isinstance(value, dict) and "values" not in value:
+        return value.get("spacing", "linear")
+    return "irregular"
+
+
 def _parse_grid(design):
     axes = tuple(_grid_axis(design, name) for name in PARAMETERS)
     design.finish()
-    return GridSpec(axes=axes)
+    spacing = tuple(_axis_spacing(design.data[name], axis)
+                    for name, axis in zip(PARAMETERS, axes))
+    return GridSpec(axes=axes, spacing=spacing)
 
 
 def _doe_bound(design, name):

@@ -121,6 +121,12 @@ class Design(abc.ABC):
         """Coordinate arrays of grid dimensions (name -> 1-D array); empty if scattered."""
         return {}
 
+    @property
+    def spacing(self):
+        """Spacing of grid dimensions (name -> "linear", "log", "irregular" or "single");
+        empty if scattered or unknown."""
+        return {}
+
     @abc.abstractmethod
     def points(self, start, stop):
         """Points ``start .. stop-1`` of the design.
@@ -146,10 +152,15 @@ class GridDesign(Design):
         self._axes = {name: np.asarray(vals, dtype=np.float64)
                       for name, vals in zip(PARAMETERS, spec.axes)}
         self.shape = tuple(a.size for a in self._axes.values())
+        self._spacing = spec.spacing
 
     @property
     def axes(self):
         return dict(self._axes)
+
+    @property
+    def spacing(self):
+        return dict(zip(PARAMETERS, self._spacing))
 
     def points(self, start, stop):
         idx = np.unravel_index(np.arange(start, stop, dtype=np.int64), self.shape)

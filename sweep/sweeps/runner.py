@@ -34,10 +34,18 @@ Faults end in :class:`RunError` (or :class:`sweep.store.ResumeError`,
 :class:`sweep.sweeps.config.ConfigError`) with a one-line message; the finished chunks are
 kept and the previous output is only ever replaced by a complete new one.
 
+Timing: before the first computed chunk, a warm-up call on a few of its points
+(:data:`WARM_UP_POINTS`) loads or compiles the kernels, so that chunk times measure warm
+kernels. The file records ``compile_time_s`` (that call), ``kernel_time_s`` (time inside
+the api calls of every chunk, resumed ones included), ``run_time_s`` (the chunks' wall time:
+kernels, design, saving, writing) and ``points_per_second`` = points / ``kernel_time_s``.
+On a Dask cluster the kernels load on the workers: no warm-up runs, no ``compile_time_s``
+is written, and kernel times include the workers' first loads.
+
 Floor 4: may import :mod:`sweep.api`, :mod:`sweep.store`, :mod:`sweep.sweeps.config`,
 :mod:`sweep.sweeps.design`, :mod:`sweep.sweeps.limits`, :mod:`sweep.sweeps.preflight` and
-:mod:`sweep._version` (and, lazily, tqdm and Dask); nothing of the reports or the command
-line.
+:mod:`sweep._version` (and, lazily, tqdm, Dask and numba's thread settings); nothing of the
+reports or the command line.
 """
 from __future__ import annotations
 
@@ -52,6 +60,7 @@ import hashlib
 import importlib.metadata
 import os
 import platform
+import shlex
 import signal
 import sys
 import threading
@@ -63,7 +72,7 @@ from typing import Any
 
 import numpy as np
 
-from sweep import api, store
+from sweep import api, registry, store
 from sweep._version import __version__
 from sweep.sweeps import config as _config
 from sweep.sweeps import design as _design
@@ -184,6 +193,9 @@ class RunResult:
     cleanup_interrupted : bool
         A signal cut the removal of the partial directory short, after the output was
         published (the output is complete; the next run removes the leftovers).
+    compile_seconds : float or None
+        Duration of the warm-up call that loaded or compiled the kernels [s] (None: no
+        warm-up ran, see the module docstring).
     """
 
     output: Path
@@ -198,6 +210,7 @@ class RunResult:
     discarded_chunks: int = 0
     committed: bool = False
     cleanup_interrupted: bool = False
+    compile_seconds: float | None = None
 
     @property
     def points_per_second(self) -> float:
@@ -257,7 +270,8 @@ def source_sha256() -> str:
 
 def _layout(design):
     if design.axes:
-        return store.Layout(dims=design.dims, shape=design.shape, axes=design.axes)
+        return store.Layout(dims=design.dims, shape=design.shape, axes=design.axes,
+                            spacing=design.spacing)
     return store.Layout(dims=design.dims, shape=design.shape, axes={},
                         point_coords=_config.PARAMETERS)
 
@@ -265,14 +279,20 @@ def _layout(design):
 def _integrator_attrs(plan):
     if not plan.integrate:
         return {"integrator": "not run (no requested output needs the numerical integration)"}
-    s = plan.integrator
-    return {
-        "integrator": "fixed-step Dormand-Prince 5(4), three phases of Algorithm 1",
-        "integrator_steps": float(api.DEFAULT_STEPS if s["steps"] is None else s["steps"]),
-        "integrator_rest_tol": float(s["rest_tol"]),
-        "integrator_max_steps": int(api.DEFAULT_MAX_STEPS if s["max_steps"] is None
-                                    else s["max_steps"]),
-    }
+    # Every option of the "numeric" method, defaults resolved (netCDF has no boolean type:
+    # flags are stored as 0 / 1).
+    return {"integrator": "fixed-step Dormand-Prince 5(4), three phases of Algorithm 1",
+            **{f"integrator_{key}": _attr_value(key, value)
+               for key, value in plan.integrator.items()}}
+
+
+def _attr_value(key, value):
+    """An integrator option as a netCDF attribute, in the type of its registry default
+    (TOML's ``steps = 16`` is the real 16.0); booleans as 0 / 1 (netCDF has none)."""
+    default = registry.METHODS["numeric"].option(key).default
+    if isinstance(default, bool):
+        return int(bool(value))
+    return type(default)(value)
 
 
 def _static_attrs(cfg, design, plan, chunk_size):
@@ -280,10 +300,9 @@ def _static_attrs(cfg, design, plan, chunk_size):
     attrs = {
         "title": cfg.title,
         "summary": cfg.description or cfg.title,
-        "Conventions": "CF-1.10",
+        "Conventions": store.CONVENTIONS,
         "source": f"sweep {__version__} (numba {_version('numba')}, numpy {np.__version__})",
         "references": store.REPORT,
-        "history": f"{now} sweep run {cfg.source or '<text>'}",
         "date_created": now,
         "sweep_version": __version__,
         "sweep_source_sha256": source_sha256(),
@@ -305,6 +324,46 @@ def _static_attrs(cfg, design, plan, chunk_size):
         for key, value in opts.items():
             attrs[f"options_{method}_{key}"] = value
     return attrs
+
+
+def _scheduler_address(scheduler):
+    """The address of a scheduler given as a string or a ``distributed.Client``."""
+    if isinstance(scheduler, str):
+        return scheduler
+    address = getattr(getattr(scheduler, "scheduler", None), "address", None)
+    return address or type(scheduler).__name__
+
+
+def _command_line(job, scheduler):
+    """The ``sweep run`` command that makes this file, with the defaults resolved."""
+    config = (shlex.quote(job.cfg.source) if job.cfg.source
+              else "<configuration text, see sweep_config>")
+    words = ["-o", str(job.output), "--chunk-size", str(job.chunk_size)]
+    if scheduler is not None:
+        words += ["--scheduler", _scheduler_address(scheduler)]
+    return f"sweep run {config} {shlex.join(words)}"
+
+
+def _provenance_attrs(job, scheduler, now):
+    """How the file is made: the command (also as a CF ``history`` line) and where the
+    chunks are computed. ``now``: ISO 8601 time of the run's start."""
+    command = _command_line(job, scheduler)
+    if scheduler is None:
+        executor = "local: chunks in turn, each on every numba thread of this process"
+    else:
+        executor = f"dask distributed, scheduler {_scheduler_address(scheduler)}"
+    return {"history": f"{now}: {command}", "sweep_command": command, "executor": executor}
+
+
+def _thread_attrs():
+    """numba's thread count and threading layer in this process (after the kernels ran)."""
+    import numba
+
+    try:
+        layer = numba.threading_layer()
+    except ValueError:  # raised until a parallel kernel has run in this process
+        layer = "none (no parallel kernel ran)"
+    return {"numba_num_threads": numba.get_num_threads(), "numba_threading_layer": layer}
 
 
 def _progress(total, initial, quiet, desc):
@@ -632,6 +691,30 @@ def _chunk_points(job, start, stop):
     return dict(zip(_config.PARAMETERS, job.design.points(start, stop)))
 
 
+#: Points of the warm-up call (the first ones of the first chunk to compute). More than the
+#: kernels' serial block, so a chunk that runs the parallel kernels warms them up.
+WARM_UP_POINTS = 256
+
+
+def _warm_up(job, done, scheduler):
+    """Step 5a: load (or compile) the kernels on a few points before the timed chunks.
+
+    Returns
+    -------
+    float or None
+        Its duration [s]; None if nothing is computed in this process (every chunk is
+        saved, or a Dask cluster computes them).
+    """
+    todo = [bounds for index, bounds in enumerate(job.chunks) if index not in done]
+    if scheduler is not None or not todo:
+        return None
+    start, stop = todo[0]
+    points = _chunk_points(job, start, min(stop, start + WARM_UP_POINTS))
+    t0 = time.perf_counter()
+    compute_chunk(job.plan, *(points[k] for k in _config.PARAMETERS))
+    return time.perf_counter() - t0
+
+
 def _tasks(job, partial, done, behind, totals, bar) -> Iterator[tuple]:
     """Chunks to compute, in order; saved chunks are verified and copied into the output
     on the way (in order, so storage chunks are written sequentially). A saved chunk that
@@ -727,17 +810,34 @@ def _signals_deferred():
             signal.raise_signal(s)
 
 
-def _finish(job, partial, writer, behind, totals):
-    """Step 10: complete the file (timing attributes), publish it atomically, clean up."""
+#: Global attributes that differ between two runs of one configuration (when, how long,
+#: how it was invoked, on how many threads); everything else is a function of the
+#: configuration and the code.
+VOLATILE_ATTRS = ("run_time_s", "kernel_time_s", "points_per_second", "compile_time_s",
+                  "date_created", "history", "sweep_command", "executor",
+                  "numba_num_threads", "numba_threading_layer")
+
+
+def _timing_attrs(job, totals, scheduler):
+    """Times of the whole dataset (see the module docstring) and the threads that ran it."""
+    attrs = {  # times to the microsecond: a small run's kernels take milliseconds
+        "run_time_s": round(totals.wall, 6),
+        "kernel_time_s": round(totals.kernel, 6),
+        "points_per_second": (round(job.design.size / totals.kernel, 1) if totals.kernel > 0
+                              else -1.0),
+    }
+    if job.result.compile_seconds is not None:
+        attrs["compile_time_s"] = round(job.result.compile_seconds, 6)
+    if scheduler is None:
+        attrs.update(_thread_attrs())
+    return attrs
+
+
+def _finish(job, partial, writer, behind, totals, scheduler):
+    """Step 6: complete the file (timing attributes), publish it atomically, clean up."""
     behind.drain()
     job.result.chunks = len(job.chunks)
-    run_time = totals.wall
-    writer.set_attrs({
-        "run_time_s": round(run_time, 3),
-        "kernel_time_s": round(totals.kernel, 3),
-        "points_per_second": (round(job.design.size / run_time, 1) if run_time > 0
-                              else -1.0),
-    })
+    writer.set_attrs(_timing_attrs(job, totals, scheduler))
     writer.close()
     try:
         with _signals_deferred():
@@ -783,18 +883,19 @@ def _write_failure(job, partial, exc):
     return None
 
 
-def _write_output(job, partial, done, quiet, client):
+def _write_output(job, partial, done, quiet, client, scheduler):
     """Steps 9 and 10 around one writer; whatever happens, the file is closed and a
     half-assembled one deleted (it is rebuilt from the chunk files; deleting it gives a
     full disk its space back)."""
     writer = behind = None
     try:
-        writer = store.NetCDFWriter(partial.assembling, job.layout, job.plan.variables,
-                                    _static_attrs(job.cfg, job.design, job.plan,
-                                                  job.chunk_size))
+        attrs = _static_attrs(job.cfg, job.design, job.plan, job.chunk_size)
+        attrs.update(_provenance_attrs(job, scheduler, attrs["date_created"]))
+        writer = store.NetCDFWriter(partial.assembling, job.layout, job.plan.variables, attrs)
         behind = _WriteBehind(writer, depth=WRITE_BEHIND)
+        job.result.compile_seconds = _warm_up(job, done, client)
         totals = _stream_chunks(job, partial, done, behind, quiet, client)
-        _finish(job, partial, writer, behind, totals)
+        _finish(job, partial, writer, behind, totals, client)
     except KeyboardInterrupt:
         n_saved = len(partial.finished())
         job.log(f"\ninterrupted: {n_saved} of {len(job.chunks)} chunks are saved in "
@@ -827,7 +928,7 @@ def _run_locked(job, restart, quiet, force, scheduler, scheduler_timeout, lock):
         _check_disk(job, force)
         partial, done = _open_partial(job, manifest, restart, lock)
         job.result.discarded_chunks += partial.discarded
-        _write_output(job, partial, done, quiet, client)
+        _write_output(job, partial, done, quiet, client, scheduler)
     finally:
         if own:
             client.close()
