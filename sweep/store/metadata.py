@@ -53,8 +53,8 @@ def variable_spec(name: str) -> tuple[np.dtype, dict]:
     Parameters
     ----------
     name : str
-        ``e_<method>``, ``error_<method>`` or an integrator field (``sticks``, ``t_f``,
-        ``u_max``, ``n_steps``, ``status``).
+        ``e_<method>``, ``error_<method>``, an integrator field (``sticks``, ``t_f``,
+        ``u_max``, ``n_steps``, ``status``) or a method's own field (``method_used``).
 
     Returns
     -------
@@ -74,21 +74,28 @@ def variable_spec(name: str) -> tuple[np.dtype, dict]:
         return _error_spec(registry.METHODS[name[6:]])
     if name in registry.FIELDS and name != "e":
         return _field_spec(registry.FIELDS[name])
+    if name in registry.method_fields():
+        return _field_spec(registry.method_fields()[name][1])
     raise KeyError(f"unknown output variable {name!r}")
 
 
 def coordinate_attrs(name: str) -> dict:
-    """CF attributes of a coordinate (``alpha``, ``beta``, ``gamma`` or ``gtilde``).
+    """CF attributes of a coordinate or input quantity.
 
     Parameters
     ----------
     name : str
-        One of the four scaled parameters of eq. (2).
+        One of the four scaled parameters of eq. (2) (``alpha``, ``beta``, ``gamma``,
+        ``gtilde``), a physical input of the scaling (``m``, ``k``, ``gamma0``, ``v0``,
+        ``g``, ``F``) or a material property (:data:`sweep.registry.MATERIAL`).
 
     Returns
     -------
     dict
-        ``long_name``, ``units`` and ``description``.
+        ``long_name``, ``units`` and ``description``; empty for another name (its
+        attributes then come from the layout, :attr:`sweep.store.layout.Layout.attrs`).
     """
-    p = registry.PARAMETERS[name]
+    p = {**registry.MATERIAL, **registry.PHYSICAL, **registry.PARAMETERS}.get(name)
+    if p is None:
+        return {}
     return {"long_name": p.long_name, "units": p.units, "description": p.description}

@@ -82,7 +82,9 @@ def summarize(path: str | os.PathLike) -> str:
         dims = {d: len(nc.dimensions[d]) for d in nc.dimensions}
         lines.append("dimensions: " + ", ".join(f"{d} = {n}" for d, n in dims.items())
                      + f"  ({math.prod(dims.values())} points)")
-        coord_names = [n for n in ("alpha", "beta", "gamma", "gtilde") if n in nc.variables]
+        # Dimension coordinates (a scene's material, v0, F), then the scaled parameters.
+        coord_names = [n for n in dims if n in nc.variables] + [
+            n for n in ("alpha", "beta", "gamma", "gtilde") if n in nc.variables and n not in dims]
         lines.append("coordinates:")
         lines += [_coordinate_line(name, nc.variables[name]) for name in coord_names]
         lines.append("variables:")
@@ -98,24 +100,33 @@ def summarize(path: str | os.PathLike) -> str:
 
 
 def _coordinate_line(name, var):
+    if var.dtype is str:  # names (materials)
+        return f"  {name:<8} {', '.join(var[:])}  {var.getncattr('long_name')}"
     lo, hi = math.inf, -math.inf
     for block in _iter_flat(var, var.shape):
         lo, hi = min(lo, float(block.min())), max(hi, float(block.max()))
     return f"  {name:<8} [{lo:.6g}, {hi:.6g}]  {var.getncattr('long_name')}"
 
 
+def _flags(name):
+    try:
+        return "flag_values" in variable_spec(name)[1]
+    except KeyError:  # not an output variable (a scene's material properties)
+        return False
+
+
 def _stats(name, var):
-    if name == "status":
-        return _status_stats(var)
+    if _flags(name):
+        return _flag_counts(name, var)
     if name == "sticks":
         return _flag_stats(var)
     return _value_stats(name, var)
 
 
-def _status_stats(var):
+def _flag_counts(name, var):
     # The codes come from variable_spec, the store's one source of them, so the summary
     # cannot drift from what the writer declares in flag_values / flag_meanings.
-    attrs = variable_spec("status")[1]
+    attrs = variable_spec(name)[1]
     values = np.asarray(attrs["flag_values"], dtype=np.int64)
     size = int(values.max()) + 1
     counts = np.zeros(size, dtype=np.int64)

@@ -27,9 +27,9 @@ the design and the :class:`ComputePlan`), check an existing output, plan the chu
 the partial state, stream the chunks (resumed ones copied, the others computed), finish
 (write the timing attributes, commit atomically) and report.
 
-Floor 4: may import :mod:`sweep.api`, :mod:`sweep.store`, :mod:`sweep.sweeps.config`,
-:mod:`sweep.sweeps.design` and :mod:`sweep._version` (and, lazily, tqdm and Dask); nothing
-of the reports or the command line.
+Floor 4: may import :mod:`sweep.api`, :mod:`sweep.registry`, :mod:`sweep.store`,
+:mod:`sweep.sweeps.config`, :mod:`sweep.sweeps.design` and :mod:`sweep._version` (and,
+lazily, tqdm and Dask); nothing of the reports or the command line.
 """
 from __future__ import annotations
 
@@ -49,7 +49,7 @@ from typing import Any
 
 import numpy as np
 
-from sweep import api, store
+from sweep import api, registry, store
 from sweep._version import __version__
 from sweep.sweeps import config as _config
 from sweep.sweeps import design as _design
@@ -77,6 +77,9 @@ class ComputePlan:
         Per-method keyword arguments of :func:`sweep.api.cor`.
     variables : tuple of str
         Variables returned, in storage order.
+    composites : tuple of str
+        Composite methods (``"auto"``) evaluated by :func:`sweep.api.cor_fields`: their e
+        and their own fields (``method_used``).
     """
 
     integrate: bool
@@ -84,15 +87,22 @@ class ComputePlan:
     approximations: tuple
     options: dict
     variables: tuple
+    composites: tuple = ()
 
     @classmethod
     def from_config(cls, cfg: _config.Config) -> ComputePlan:
         """The plan of a validated configuration (its outputs, integrator and options)."""
         out = cfg.outputs
+        options = {m: cfg.method_options(m) for m in out.approximations}
+        for m in out.composites:
+            # A composite method integrates some points: with [integrator]'s settings
+            # unless its own options say otherwise.
+            accepted = {opt.name for opt in registry.METHODS[m].options}
+            options[m] = {**{k: v for k, v in cfg.integrator.kwargs().items()
+                             if k in accepted}, **cfg.method_options(m)}
         return cls(integrate=out.needs_integration, integrator=cfg.integrator.kwargs(),
-                   approximations=out.approximations,
-                   options={m: cfg.method_options(m) for m in out.approximations},
-                   variables=out.variables)
+                   approximations=out.approximations, options=options,
+                   variables=out.variables, composites=out.composites)
 
 
 def compute_chunk(plan: ComputePlan, alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
@@ -118,6 +128,11 @@ def compute_chunk(plan: ComputePlan, alpha: np.ndarray, beta: np.ndarray, gamma:
         res = api.integrate(alpha, beta, gamma, gtilde, **plan.integrator)
     approx = {m: api.cor(alpha, beta, gamma, gtilde, method=m, **plan.options.get(m, {}))
               for m in plan.approximations}
+    own = {}  # the composite methods' e and fields
+    for m in plan.composites:
+        out = api.cor_fields(alpha, beta, gamma, gtilde, method=m, **plan.options.get(m, {}))
+        approx[m] = out.pop("e")
+        own.update({name: value for name, value in out.items() if name != "status"})
     seconds = time.perf_counter() - t0
     arrays = {}
     for name in plan.variables:
@@ -129,7 +144,7 @@ def compute_chunk(plan: ComputePlan, alpha: np.ndarray, beta: np.ndarray, gamma:
             # The integration ran once above; every error field shares it.
             value = approx[name[6:]] - res.e
         else:
-            value = getattr(res, name)
+            value = own[name] if name in own else getattr(res, name)
         dtype, _ = store.variable_spec(name)
         arrays[name] = np.ascontiguousarray(value, dtype=dtype).reshape(-1)
     return arrays, seconds
@@ -223,13 +238,6 @@ def source_sha256() -> str:
         h.update(path.relative_to(package).as_posix().encode())
         h.update(path.read_bytes())
     return h.hexdigest()
-
-
-def _layout(design):
-    if design.axes:
-        return store.Layout(dims=design.dims, shape=design.shape, axes=design.axes)
-    return store.Layout(dims=design.dims, shape=design.shape, axes={},
-                        point_coords=_config.PARAMETERS)
 
 
 def _integrator_attrs(plan):
@@ -408,7 +416,7 @@ def _prepare(cfg, output, chunk_size, quiet, log):
     chunk_size = int(chunk_size or cfg.chunk_size)
     design = _design.build(cfg.design)
     return _Job(cfg=cfg, design=design, plan=ComputePlan.from_config(cfg),
-                layout=_layout(design), output=output, chunk_size=chunk_size, log=log,
+                layout=design.layout(), output=output, chunk_size=chunk_size, log=log,
                 result=RunResult(output=output, n_points=design.size))
 
 
@@ -473,7 +481,7 @@ def _tasks(job, partial, done, behind, totals, bar) -> Iterator[tuple]:
     """Chunks to compute, in order; saved chunks are copied into the output on the way
     (in order, so storage chunks are written sequentially)."""
     for index, (start, stop) in enumerate(job.chunks):
-        need_points = index not in done or job.layout.point_coords
+        need_points = index not in done or job.layout.per_point
         points = _chunk_points(job, start, stop) if need_points else None
         if index in done:
             loaded = partial.load_chunk(index, start, stop)
