@@ -23,7 +23,7 @@ from sweep.kernels.integrator import (DEFAULT_MAX_STEPS, DEFAULT_REST_TOL, DEFAU
                                       integrate_arrays)
 from sweep.registry import Status
 
-__all__ = ["integrate", "cor", "cor_with_status", "IntegrationResult", "METHODS",
+__all__ = ["integrate", "cor", "cor_with_status", "cor_fields", "IntegrationResult", "METHODS",
            "APPROXIMATIONS", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL",
            "coefficients", "coefficients_at_zero", "first_order_coefficients",
            "large_gtilde_coefficient", "SP_C2"]
@@ -114,16 +114,25 @@ def _undefined_raise(m: registry.Method, b: Broadcast) -> None:
                      f"beta={float(b.flat[1][0])!r} (see sweep.registry.METHODS)")
 
 
-def cor_with_status(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
-                    **options: Any) -> tuple[Any, Any]:
-    """Like :func:`cor`, also returning the per-point :class:`~sweep.registry.Status` codes."""
+def cor_fields(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
+               **options: Any) -> dict[str, Any]:
+    """Every per-point output of a method: ``e``, ``status`` and its own fields.
+
+    The integration gives the fields of :data:`sweep.registry.FIELDS`; another method
+    gives ``e``, ``status`` and its :attr:`sweep.registry.Method.fields` (``"auto"``:
+    ``method_used``). Arguments as for :func:`cor`.
+
+    Returns
+    -------
+    dict of str -> ndarray (scalars for a scalar call)
+    """
     m = registry.method(method)
     if m.integrates:
         r = integrate(alpha, beta, gamma, gtilde, **options)
-        return r.e, r.status
+        return {f.name: getattr(r, f.name) for f in dataclasses.fields(r)}
     options = m.check_options(options)
     b = broadcast_points(alpha, beta, gamma, gtilde)
-    e, status = m.resolve()(*b.flat, **options)
+    e, status, *extra = m.resolve()(*b.flat, **options)
     undefined = ~m.defined_at(b.flat[0], b.flat[1])
     if undefined.any():
         if b.scalar:
@@ -133,7 +142,16 @@ def cor_with_status(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str 
     if b.scalar and status[0] == Status.INVALID:
         _undefined_raise(m, b)
     st = b.restore(status)
-    return b.restore(e), (Status(st) if b.scalar else st)
+    out = {"e": b.restore(e), "status": Status(st) if b.scalar else st}
+    out.update({name: b.restore(value) for name, value in (extra[0] if extra else {}).items()})
+    return out
+
+
+def cor_with_status(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
+                    **options: Any) -> tuple[Any, Any]:
+    """Like :func:`cor`, also returning the per-point :class:`~sweep.registry.Status` codes."""
+    out = cor_fields(alpha, beta, gamma, gtilde, method, **options)
+    return out["e"], out["status"]
 
 
 def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
@@ -148,10 +166,13 @@ def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
         A name of :data:`sweep.registry.METHODS`: ``"numeric"`` (:func:`integrate`), or one
         of the report's approximations: ``"ord1"`` (22), ``"sp"`` (25), (30),
         ``"large_gtilde"`` (23), ``"ord2_numint"`` and ``"ord2_approx"`` (Prop. 2 with I, Q by
-        quadrature or by the Chebyshev-Beta approximation, option ``n``).
+        quadrature or by the Chebyshev-Beta approximation, option ``n``), or ``"auto"``
+        (per point, the cheapest of them whose validated error bound is within ``tol``;
+        :mod:`sweep.auto`).
     **options
         The method's options (:attr:`sweep.registry.Method.options`): ``steps``,
-        ``rest_tol``, ``max_steps`` for ``"numeric"``; ``n`` for ``"ord2_approx"``.
+        ``rest_tol``, ``max_steps`` for ``"numeric"``; ``n`` for ``"ord2_approx"``; ``tol``
+        and the integrator's options for ``"auto"``.
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""Command line: ``sweep run | info | validate | report``.
+"""Command line: ``sweep run | info | validate | report | export | example``.
 
 ::
 
@@ -11,6 +11,10 @@
     sweep report accuracy DATASET.nc [--out DIR]
     sweep report paper [--out DIR] [--n-gamma N] [--n-crit N] [--steps S] [--models ...]
     sweep report speed [--out DIR] [--n-points N] [--n-scipy N] [--n-check N] [--model M]
+    sweep report error-model [--out FILE.npz] [--sub N] [--n-validate N]
+    sweep export SCENE.nc (--csv | --npz) [-o OUT] [--variable V] [--no-check]
+    sweep example bounce [--out DIR] [--cor direct|lookup] [--table SCENE.nc]
+                         [--scene CONFIG [--material NAME]] [--height H] [--method M] [--tol T]
 
 Exit status: 0 success; 1 an error: invalid configuration, refused resume or preflight,
 output locked by another run, unreadable dataset, a file system or scheduler fault; 2 bad
@@ -28,6 +32,7 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+from pathlib import Path
 
 __all__ = ["main", "build_parser", "add_report_commands"]
 
@@ -166,7 +171,8 @@ def _cmd_validate(args):
     print(f"  {d.describe()}")
     print(f"  stored variables: {', '.join(out.variables)}")
     print(f"  numerical integration: {'yes' if out.needs_integration else 'no'}; "
-          f"approximations evaluated: {', '.join(out.approximations) or 'none'}")
+          f"approximations evaluated: {', '.join(out.approximations) or 'none'}"
+          + (f"; per-point choice: {', '.join(out.composites)}" if out.composites else ""))
     for line in pre.lines():
         print(f"  {line}")
     if not args.no_estimate:
@@ -301,6 +307,33 @@ def _add_speed_command(sub, models):
     p.set_defaults(func=_cmd_speed)
 
 
+def _cmd_error_model(args):
+    from sweep.reports.error_model import error_model_report
+
+    res = error_model_report(args.out or None, sub=args.sub, n_validate=args.n_validate,
+                             progress=not args.quiet)
+    print(res["markdown"])
+    return _print_files(res, "files:")
+
+
+def _add_error_model_command(sub):
+    p = sub.add_parser(
+        "error-model", help="rebuild and validate the error model of method = \"auto\"",
+        description="Measure every closed form against the numerical CoR (the judge, at "
+                    "256 steps) over (alpha, beta, gamma, g~), tabulate bounds with a "
+                    "safety factor, save them (default: the package's own "
+                    "sweep/data/error_model.npz) and check |e_auto - e_judge| <= tol on "
+                    "random points in and out of the model.")
+    p.add_argument("--out", metavar="FILE.npz", default=None,
+                   help="where to write the model (default: the file the package ships)")
+    p.add_argument("--sub", type=int, default=2, metavar="N",
+                   help="samples per cell edge (default 2)")
+    p.add_argument("--n-validate", type=int, default=20000, metavar="N",
+                   help="random points of the validation (default 20000; 0: none)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
+    p.set_defaults(func=_cmd_error_model)
+
+
 def add_report_commands(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Add ``report {accuracy, paper, speed}`` to an argparse sub-parsers object.
 
@@ -327,7 +360,89 @@ def add_report_commands(subparsers: argparse._SubParsersAction) -> argparse.Argu
     _add_accuracy_command(sub)
     _add_paper_command(sub, list(PAPER_MODELS))
     _add_speed_command(sub, list(PAPER_MODELS))
+    _add_error_model_command(sub)
     return rep
+
+
+# --------------------------------------------------------------------------- export, example
+
+def _cmd_export(args):
+    from sweep import tables
+
+    fmt = "csv" if args.csv else "npz"
+    out = args.output or str(Path(args.dataset).with_suffix("." + fmt))
+    try:
+        path = tables.export(args.dataset, out, fmt)
+        print(f"wrote {path}")
+        if not args.no_check:
+            err = tables.Table(args.dataset, args.variable).error()
+            w = err["where"]
+            print(f"lookup ({err['variable']}, monotone PCHIP): interpolation error against "
+                  f"direct computation on {err['n_points']} held-back points: max "
+                  f"{err['max_abs']:.3g} (at {w.get('material')}, v0 = {w.get('v0', 0):.4g} "
+                  f"m/s, F = {w.get('F', 0):.4g} N), median {err['median_abs']:.3g}")
+    except (OSError, ValueError) as exc:
+        print(f"sweep export: error: {args.dataset}: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _add_export_command(sub):
+    p = sub.add_parser(
+        "export", help="a scene's e(v0, F) table as CSV or NumPy .npz",
+        description="Write the table of a scene dataset (dimensions material, v0, F) for "
+                    "simulation codes, and report the interpolation error of a lookup in it "
+                    "(sweep.lookup) against direct computation on held-back points.")
+    p.add_argument("dataset", metavar="SCENE.nc", help="output of `sweep run` on a scene")
+    fmt = p.add_mutually_exclusive_group(required=True)
+    fmt.add_argument("--csv", action="store_true", help="CSV, one row per (material, v0, F)")
+    fmt.add_argument("--npz", action="store_true", help="NumPy .npz, arrays on (material, "
+                                                        "v0, F)")
+    p.add_argument("-o", "--output", metavar="OUT", help="output file (default: SCENE with "
+                                                         "the format's suffix)")
+    p.add_argument("--variable", default=None, help="variable the lookup check interpolates "
+                                                    "(default e_numeric, else e_auto)")
+    p.add_argument("--no-check", action="store_true", help="skip the interpolation check")
+    p.set_defaults(func=_cmd_export)
+
+
+def _cmd_bounce(args):
+    from sweep import examples
+
+    material, g = examples.STEEL_BALL, 9.81
+    if args.scene:
+        material, g = examples.scene_material(args.scene, args.material)
+    options = {"tol": args.tol} if args.tol is not None else {}
+    res = examples.bounce_example(args.out, material, h0=args.height, g=g, source=args.cor,
+                                  table=args.table, method=args.method, v_stop=args.v_stop,
+                                  **options)
+    print(res["summary"])
+    return _print_files(res, f"files in {args.out}:")
+
+
+def _add_example_commands(sub):
+    ex = sub.add_parser("example", help="worked examples (the bouncing ball)")
+    exs = ex.add_subparsers(dest="example", required=True, metavar="EXAMPLE")
+    p = exs.add_parser(
+        "bounce", help="a ball dropped from 1 m, each impact's CoR from the engine",
+        description="Drop a bead (default: the report's steel ball, KK) from a height and "
+                    "follow its bounces until it no longer rebounds (e = 0) or rebounds "
+                    "slower than --v-stop; each impact's CoR comes from the engine, directly "
+                    "or from a lookup table. Writes bounce_height.png, bounce_impacts.png "
+                    "and bounce_impacts.csv.")
+    p.add_argument("--out", metavar="DIR", default="bounce", help="output directory")
+    p.add_argument("--cor", choices=("direct", "lookup"), default="direct",
+                   help="CoR per impact: sweep.cor, or a lookup table (default direct)")
+    p.add_argument("--table", metavar="SCENE.nc", help="lookup table (a scene dataset at "
+                   "F = 0 holding the material; default: built on the fly)")
+    p.add_argument("--scene", metavar="CONFIG", help="take the material from a scene config")
+    p.add_argument("--material", metavar="NAME", help="material of --scene (default: first)")
+    p.add_argument("--height", type=float, default=1.0, help="drop height [m] (default 1)")
+    p.add_argument("--method", default="numeric", help="method of a direct CoR (e.g. auto)")
+    p.add_argument("--tol", type=float, default=None, help="tol of --method auto")
+    p.add_argument("--v-stop", type=float, default=1e-5,
+                   help="rest: rebound speed below this [m/s] (default 1e-5)")
+    p.set_defaults(func=_cmd_bounce)
 
 
 # --------------------------------------------------------------------------- entry point
@@ -350,6 +465,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_run_command(sub)
     _add_info_and_validate_commands(sub)
     add_report_commands(sub)
+    _add_export_command(sub)
+    _add_example_commands(sub)
     return parser
 
 

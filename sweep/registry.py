@@ -8,11 +8,15 @@ the configuration parser, the store and the reports read it from here:
   (Assumption 1 of the report and physical signs), with :func:`valid_points`,
   :func:`check_scalar` and :func:`check_array` to apply it;
 * :data:`PHYSICAL` -- the physical inputs of the scaling (2) and their domain;
+* :data:`MATERIAL` -- the properties a scene may derive them from (Hertz stiffness, mass,
+  damping models: :mod:`sweep.materials`) and their domain;
 * :data:`MODELS` -- the report's named contact laws (alpha, beta);
 * :data:`METHODS` -- every way of computing the CoR: name, kernel, options, long name,
   equation, domain (:func:`register_method` adds one);
 * :data:`FIELDS` -- the per-point outputs of the integrator and the fields derived from them:
-  name, dtype, units, long_name, description, fill value (:func:`register_field`).
+  name, dtype, units, long_name, description, fill value (:func:`register_field`);
+* :data:`SERVED_BY` -- the flag codes of the ``method_used`` field of the ``"auto"`` method
+  (which method served each point).
 
 Adding a method is one :class:`Method` entry here plus its kernel; adding an output field is
 one :class:`Field` entry plus the kernel code that fills it (see the README's contributor
@@ -31,10 +35,11 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "MODELS",
-           "Option", "Method", "METHODS", "Field", "FIELDS", "valid_points", "check_scalar",
-           "check_array", "register_method", "unregister_method", "register_field",
-           "unregister_field", "method", "approximations", "integrator_fields",
+__all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "MATERIAL",
+           "MODELS", "Option", "Method", "METHODS", "Field", "FIELDS", "SERVED_BY",
+           "valid_points", "check_scalar", "check_array", "register_method",
+           "unregister_method", "register_field", "unregister_field", "method",
+           "approximations", "composites", "method_fields", "integrator_fields",
            "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX"]
 
 #: The report every equation number refers to.
@@ -84,6 +89,8 @@ class Parameter:
         The domain in words, for error messages ("must be ...").
     units : str
         CF units.
+    maximum : float
+        Upper bound of the domain (included; inf: none).
     """
 
     name: str
@@ -93,12 +100,13 @@ class Parameter:
     strict: bool = False
     rule: str = ""
     units: str = "1"
+    maximum: float = math.inf
 
     def ok(self, value: Any) -> Any:
-        """Elementwise: inside the domain (finite and above the bound)."""
+        """Elementwise: inside the domain (finite and between the bounds)."""
         x = np.asarray(value, dtype=np.float64)
         above = x > self.minimum if self.strict else x >= self.minimum
-        return np.isfinite(x) & above
+        return np.isfinite(x) & above & (x <= self.maximum)
 
 
 _UNIQUENESS = ">= 1 (uniqueness is not known below 1)"
@@ -136,6 +144,28 @@ PHYSICAL: dict[str, Parameter] = {p.name: p for p in (
               "finite [m/s^2]", "m s-2"),
     Parameter("F", "external load", "constant compressive force on the bead", -math.inf,
               False, "finite [N]", "N"),
+)}
+
+#: Material properties a scene may derive m, k and gamma0 from (:mod:`sweep.materials`;
+#: formulas and references in docs/scenes.md). SI units throughout.
+MATERIAL: dict[str, Parameter] = {p.name: p for p in (
+    Parameter("radius", "bead radius", "radius R of the spherical bead", 0.0, True,
+              "> 0 [m]", "m"),
+    Parameter("density", "bead density", "mass density of the bead: m = 4/3 pi R^3 rho",
+              0.0, True, "> 0 [kg/m^3]", "kg m-3"),
+    Parameter("E", "Young's modulus", "Young's modulus of a body in contact (Hertz theory)",
+              0.0, True, "> 0 [Pa]", "Pa"),
+    Parameter("nu", "Poisson's ratio", "Poisson's ratio of a body in contact (Hertz theory)",
+              -1.0, True, "in (-1, 0.5]", "1", 0.5),
+    Parameter("e", "target coefficient of restitution",
+              "coefficient of restitution the damping is tuned to reproduce", 0.0, True,
+              "in (0, 1]", "1", 1.0),
+    Parameter("eta1", "first viscous constant",
+              "viscous constant eta1 of the bead material (Brilliantov et al. 1996)", 0.0,
+              False, ">= 0 [Pa s]", "Pa s"),
+    Parameter("eta2", "second viscous constant",
+              "viscous constant eta2 of the bead material (Brilliantov et al. 1996)", 0.0,
+              False, ">= 0 [Pa s]", "Pa s"),
 )}
 
 #: The report's named contact laws: name -> (alpha, beta) (report Table 1).
@@ -218,6 +248,18 @@ class Option:
     check: Callable[[Any], bool]
     rule: str
 
+    def to_attr(self, value: Any) -> Any:
+        """The value as a netCDF attribute, in the type of the default (TOML's
+        ``steps = 16`` is the real 16.0); booleans as 0 / 1 (netCDF has no boolean)."""
+        if isinstance(self.default, bool):
+            return int(bool(value))
+        return type(self.default)(value) if self.default is not None else value
+
+    def from_attr(self, value: Any) -> Any:
+        """Inverse of :meth:`to_attr`."""
+        value = value.item() if hasattr(value, "item") else value
+        return bool(value) if isinstance(self.default, bool) else value
+
 
 def _is_int(v: Any) -> bool:
     # TOML and JSON booleans are Python bools, which are ints: never accept them as numbers.
@@ -243,13 +285,21 @@ class Method:
     kernel : str or callable
         ``"module:function"`` (resolved on first use, so this floor imports no kernel) or a
         callable ``kernel(alpha, beta, gamma, gtilde, **options) -> (e, status)`` on flat
-        float64 arrays of equal length.
+        float64 arrays of equal length; a method with :attr:`fields` returns
+        ``(e, status, {field name: flat array})``.
     options : tuple of Option
         Keyword options the kernel accepts.
     models : tuple of (alpha, beta), optional
         The only exponents where the method is defined (None: everywhere in the domain).
     integrates : bool
         The method is the numerical integration (its fields are :func:`integrator_fields`).
+    fields : tuple of Field
+        Per-point outputs of the kernel besides e and status (e.g. ``method_used``); a sweep
+        may store them when it stores the method.
+    composite : bool
+        The method serves each point with another registered method (``"auto"``): it is
+        neither the integration nor a closed form (:func:`approximations` leaves it out, and
+        so does ``outputs.e = "all"``).
     """
 
     name: str
@@ -260,6 +310,8 @@ class Method:
     options: tuple[Option, ...] = ()
     models: tuple[tuple[float, float], ...] | None = None
     integrates: bool = False
+    fields: tuple[Field, ...] = ()
+    composite: bool = False
 
     def resolve(self) -> Callable[..., tuple[np.ndarray, np.ndarray]]:
         """The kernel as a callable (imports its module on first use)."""
@@ -370,8 +422,18 @@ def method(name: str) -> Method:
 
 
 def approximations() -> tuple[str, ...]:
-    """Names of the closed-form methods (every method but the integration), in order."""
-    return tuple(name for name, m in METHODS.items() if not m.integrates)
+    """Names of the closed-form methods (neither the integration nor composite), in order."""
+    return tuple(name for name, m in METHODS.items() if not (m.integrates or m.composite))
+
+
+def composites() -> tuple[str, ...]:
+    """Names of the composite methods (each point served by another method), in order."""
+    return tuple(name for name, m in METHODS.items() if m.composite)
+
+
+def method_fields() -> dict[str, tuple[str, Field]]:
+    """Fields produced by a method's kernel: field name -> (method name, :class:`Field`)."""
+    return {f.name: (name, f) for name, m in METHODS.items() for f in m.fields}
 
 
 def register_method(m: Method) -> None:
@@ -390,7 +452,8 @@ def unregister_method(name: str) -> None:
 
 @dataclasses.dataclass(frozen=True)
 class Field:
-    """A per-point output of the numerical integration.
+    """A per-point output: of the numerical integration (:data:`FIELDS`) or of another
+    method's kernel (:attr:`Method.fields`).
 
     Attributes
     ----------
@@ -476,3 +539,26 @@ def unregister_field(name: str) -> None:
 def variable_names(methods: tuple[str, ...], fields: tuple[str, ...]) -> tuple[str, ...]:
     """Dataset variables of a sweep storing ``methods`` and ``fields``, in storage order."""
     return tuple(f"e_{m}" for m in methods) + tuple(fields)
+
+
+# --------------------------------------------------------------------------- composite methods
+
+#: Flag codes of ``method_used``: which method served a point of ``method = "auto"``. The
+#: built-in methods in their stable order; stored in datasets, never renumber them.
+SERVED_BY: dict[str, int] = {name: code for code, name in enumerate(METHODS)}
+
+_AUTO_TOL = Option("tol", 1e-6, lambda v: _is_number(v) and v > 0,
+                   "a number > 0 (largest acceptable abs error on e)")
+
+METHODS["auto"] = Method(
+    "auto", "coefficient of restitution, cheapest method within tol",
+    "e from the cheapest method whose validated error bound on e is <= tol at the point "
+    "(the closed forms of report eqs. (22), (23), (25), (36)-(38) where their error model, "
+    "sweep/data/error_model.npz, allows it; the numerical integration, eqs. (3), (4), "
+    "elsewhere); method_used says which", "(3), (4), (22)-(25), (36)-(38)",
+    "sweep.auto:auto_cor", (_AUTO_TOL,) + _INTEGRATOR_OPTIONS,
+    fields=(Field("method_used", np.dtype(np.int8), "method that served the point",
+                  "which method of the registry computed e_auto at this point: "
+                  + ", ".join(f"{code} = {name}" for name, code in SERVED_BY.items()),
+                  flags=dict(SERVED_BY)),),
+    composite=True)

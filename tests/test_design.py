@@ -132,7 +132,7 @@ def test_points_outside_the_design_are_refused():
 
 def test_unknown_kind_has_no_builder():
     class Spec:
-        kind = "scene"
+        kind = "lattice"
 
-    with pytest.raises(ValueError, match="scene"):
+    with pytest.raises(ValueError, match="lattice"):
         design.build(Spec())

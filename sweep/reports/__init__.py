@@ -1,6 +1,7 @@
-"""Reports: accuracy maps of a sweep, the report's tables and figures, speed against error.
+"""Reports: accuracy maps of a sweep, the report's tables and figures, speed against error,
+the error model of ``method = "auto"``.
 
-Three reports, each a plain function (run from the command line by ``sweep report``, whose
+Four reports, each a plain function (run from the command line by ``sweep report``, whose
 arguments live in :mod:`sweep.cli`):
 
 :func:`accuracy_report` (``sweep report accuracy DATASET.nc [--out DIR]``)
@@ -15,6 +16,10 @@ arguments live in :mod:`sweep.cli`):
     Work-precision: points per second against the error for the integrator at several
     resolutions, every approximation and scipy's ``solve_ivp`` as a peer. See
     :mod:`sweep.reports.speed`.
+:func:`error_model_report` (``sweep report error-model [--out FILE.npz]``)
+    The error bounds of the closed forms over (alpha, beta, gamma, g~) that ``method =
+    "auto"`` chooses by, measured against the numerical CoR, and their validation on random
+    points. See :mod:`sweep.reports.error_model`.
 
 Their shared helpers (plotting backend, machine description, tables) are in
 :mod:`sweep.reports.common`; the published numbers in :mod:`sweep.reports.paper_values`.
@@ -33,8 +38,10 @@ from __future__ import annotations
 
 from sweep.reports.accuracy import accuracy_report
 from sweep.reports.common import format_value, machine_description, write_table
+from sweep.reports.error_model import error_model_report
 from sweep.reports.paper import paper_report
 from sweep.reports.speed import speed_report
 
-__all__ = ["accuracy_report", "paper_report", "speed_report", "machine_description",
+__all__ = ["accuracy_report", "paper_report", "speed_report", "error_model_report",
+           "machine_description",
            "write_table", "format_value"]

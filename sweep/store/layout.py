@@ -27,13 +27,23 @@ class Layout:
     dims, shape : tuple
         Dimensions of every data variable, C order over the flat point index.
     axes : dict
-        Coordinate variable per dimension (grid designs); empty for scattered designs.
+        Coordinate variable per dimension (grid and scene designs; numbers or strings);
+        empty for scattered designs.
     point_coords : tuple of str
         Coordinates stored per point along the single dimension (scattered designs), which
         is then indexed by an integer coordinate 0..n-1 of its own name.
     spacing : dict
-        Spacing of each grid axis (name -> one of
-        :data:`sweep.store.metadata.SPACINGS`); axes absent here carry none.
+        Spacing of each axis (name -> one of :data:`sweep.store.metadata.SPACINGS`); axes
+        absent here carry none.
+    point_vars : tuple of str
+        Per-point values stored as data variables on ``dims`` (a scene's gamma and g~):
+        like ``point_coords``, written from the points of each chunk.
+    constants : dict
+        Variables known before the run: name -> (dims, values) (a scene's per-material
+        m, k, gamma0, alpha, beta; its scalar g).
+    attrs : dict
+        Attributes per coordinate or variable name, added to those of
+        :func:`sweep.store.metadata.coordinate_attrs` (e.g. a material's long name).
     """
 
     dims: tuple
@@ -41,11 +51,19 @@ class Layout:
     axes: dict
     point_coords: tuple = ()
     spacing: dict = dataclasses.field(default_factory=dict)
+    point_vars: tuple = ()
+    constants: dict = dataclasses.field(default_factory=dict)
+    attrs: dict = dataclasses.field(default_factory=dict)
 
     @property
     def size(self) -> int:
         """Number of points (the product of ``shape``)."""
         return math.prod(self.shape)
+
+    @property
+    def per_point(self) -> tuple:
+        """Names written from each chunk's points: ``point_coords + point_vars``."""
+        return tuple(self.point_coords) + tuple(self.point_vars)
 
 
 def _sub_blocks(shape: tuple, row: int, lo: int, hi: int) -> Iterator[tuple]:

@@ -92,8 +92,8 @@ def variable_spec(name: str) -> tuple[np.dtype, dict]:
     Parameters
     ----------
     name : str
-        ``e_<method>``, ``error_<method>`` or an integrator field (``sticks``, ``t_f``,
-        ``u_max``, ``n_steps``, ``status``).
+        ``e_<method>``, ``error_<method>``, an integrator field (``sticks``, ``t_f``,
+        ``u_max``, ``n_steps``, ``status``) or a method's own field (``method_used``).
 
     Returns
     -------
@@ -115,6 +115,8 @@ def variable_spec(name: str) -> tuple[np.dtype, dict]:
         return _error_spec(registry.METHODS[name[6:]])
     if name in registry.FIELDS and name != "e":
         return _field_spec(registry.FIELDS[name])
+    if name in registry.method_fields():
+        return _field_spec(registry.method_fields()[name][1])
     raise KeyError(f"unknown output variable {name!r}")
 
 
@@ -126,20 +128,24 @@ _POINT = {"long_name": "design point index", "units": "1",
 
 
 def coordinate_attrs(name: str, spacing: str | None = None) -> dict:
-    """CF attributes of a coordinate.
+    """CF attributes of a coordinate or input quantity.
 
     Parameters
     ----------
     name : str
-        One of the four scaled parameters of eq. (2), or ``point`` (the index of a design
-        of experiments).
+        One of the four scaled parameters of eq. (2) (``alpha``, ``beta``, ``gamma``,
+        ``gtilde``), a physical input of the scaling (``m``, ``k``, ``gamma0``, ``v0``,
+        ``g``, ``F``), a material property (:data:`sweep.registry.MATERIAL`) or ``point``
+        (the index of a design of experiments).
     spacing : str, optional
-        Spacing of a grid axis, one of :data:`SPACINGS`.
+        Spacing of an axis, one of :data:`SPACINGS`.
 
     Returns
     -------
     dict
-        ``long_name``, ``units`` and ``description``; ``spacing`` if given.
+        ``long_name``, ``units`` and ``description``, and ``spacing`` if given; empty for
+        another name (its attributes then come from the layout,
+        :attr:`sweep.store.layout.Layout.attrs`).
 
     Raises
     ------
@@ -149,8 +155,9 @@ def coordinate_attrs(name: str, spacing: str | None = None) -> dict:
     if name == "point":
         attrs = dict(_POINT)
     else:
-        p = registry.PARAMETERS[name]
-        attrs = {"long_name": p.long_name, "units": p.units, "description": p.description}
+        p = {**registry.MATERIAL, **registry.PHYSICAL, **registry.PARAMETERS}.get(name)
+        attrs = ({"long_name": p.long_name, "units": p.units, "description": p.description}
+                 if p is not None else {})
     if spacing is not None:
         if spacing not in SPACINGS:
             raise ValueError(f"spacing must be one of {SPACINGS}, got {spacing!r}")

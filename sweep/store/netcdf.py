@@ -7,8 +7,10 @@ settings; and :func:`commit`, the fsync + rename that makes the output appear at
 
 The file opens with a plain ``xarray.open_dataset``: grid designs have dimensions
 (alpha, beta, gamma, gtilde) with coordinate variables, scattered designs a ``point``
-dimension, indexed 0..n-1, with the four parameters as (point) coordinates. Attributes,
-fill values and storage dtypes come from :mod:`sweep.store.metadata`.
+dimension, indexed 0..n-1, with the four parameters as (point) coordinates, scenes the
+dimensions (material, v0, F) with gamma and g~ as data variables on them and the materials'
+properties on ``material``. Attributes, fill values and storage dtypes come from
+:mod:`sweep.store.metadata` and the layout's own (:attr:`~sweep.store.layout.Layout.attrs`).
 
 May import: numpy, netCDF4 and the store's own :mod:`~sweep.store.layout` and
 :mod:`~sweep.store.metadata`. Nothing of numba, the kernels or any floor above the store.
@@ -96,6 +98,18 @@ class NetCDFWriter:
         var.setncatts(attrs)
         return var
 
+    def _constant(self, name, dims, values):
+        """A variable written once, here: an axis or a constant of the layout."""
+        values = np.asarray(values)
+        if values.dtype.kind in "OUS":  # names (a scene's materials): netCDF strings
+            var = self._nc.createVariable(name, str, dims)
+            var[:] = values.astype(object)
+        else:
+            var = self._nc.createVariable(name, np.float64, dims, fill_value=False)
+            var[...] = values.astype(np.float64)
+        var.setncatts({**coordinate_attrs(name, self.layout.spacing.get(name)),
+                       **self.layout.attrs.get(name, {})})
+
     def _define(self, attrs):
         nc, lay = self._nc, self.layout
         nc.set_auto_maskandscale(False)
@@ -103,14 +117,15 @@ class NetCDFWriter:
             nc.createDimension(dim, n)
         chunks = _storage_chunks(lay.shape)
         for name, values in lay.axes.items():
-            var = nc.createVariable(name, np.float64, (name,), fill_value=False)
-            var.setncatts(coordinate_attrs(name, lay.spacing.get(name)))
-            var[:] = np.asarray(values, dtype=np.float64)
+            self._constant(name, (name,), values)
+        for name, (dims, values) in lay.constants.items():
+            self._constant(name, tuple(dims), values)
         if lay.point_coords:  # the index of the single dimension, written chunk by chunk
             self._create(lay.dims[0], index_dtype(lay.size), lay.dims, chunks,
                          coordinate_attrs(lay.dims[0]))
-        for name in lay.point_coords:
-            self._create(name, np.dtype(np.float64), lay.dims, chunks, coordinate_attrs(name))
+        for name in lay.per_point:
+            self._create(name, np.dtype(np.float64), lay.dims, chunks,
+                         {**coordinate_attrs(name), **lay.attrs.get(name, {})})
         for name in self.variables:
             dtype, vattrs = variable_spec(name)
             if lay.point_coords:
@@ -144,7 +159,8 @@ class NetCDFWriter:
         arrays : dict of str -> ndarray
             One flat array of length ``stop - start`` per stored variable.
         points : dict of str -> ndarray, optional
-            Per-point coordinates (scattered designs).
+            Per-point values: coordinates of scattered designs, a scene's gamma and g~
+            (:attr:`Layout.per_point`).
 
         Raises
         ------
@@ -152,10 +168,11 @@ class NetCDFWriter:
             If an array has the wrong length, or per-point coordinates are missing.
         """
         todo = dict(arrays)
-        if self.layout.point_coords:
+        if self.layout.per_point:
             if points is None:
                 raise ValueError("per-point coordinates are required for this layout")
-            todo.update({k: points[k] for k in self.layout.point_coords})
+            todo.update({k: points[k] for k in self.layout.per_point})
+        if self.layout.point_coords:   # the index of a scattered design's dimension
             todo[self.layout.dims[0]] = np.arange(start, stop)
         for name, arr in todo.items():
             var = self._nc.variables[name]

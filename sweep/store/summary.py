@@ -87,7 +87,12 @@ def summarize(path: str | os.PathLike) -> str:
         dims = {d: len(nc.dimensions[d]) for d in nc.dimensions}
         lines.append("dimensions: " + ", ".join(f"{d} = {n}" for d, n in dims.items())
                      + f"  ({math.prod(dims.values())} points)")
-        coord_names = [n for n in ("alpha", "beta", "gamma", "gtilde") if n in nc.variables]
+        # Dimension coordinates (a scene's material, v0, F; not the integer index of a
+        # design of experiments' points, which the dimension line already tells), then the
+        # scaled parameters.
+        coord_names = [n for n in dims if n in nc.variables
+                       and nc.variables[n].dtype.kind not in "iu"] + [
+            n for n in ("alpha", "beta", "gamma", "gtilde") if n in nc.variables and n not in dims]
         lines.append("coordinates:")
         lines += [_coordinate_line(name, nc.variables[name]) for name in coord_names]
         lines.append("variables:")
@@ -110,6 +115,8 @@ def _require_sweep_output(path, attrs):
 
 
 def _coordinate_line(name, var):
+    if var.dtype is str:  # names (materials)
+        return f"  {name:<8} {', '.join(var[:])}  {var.getncattr('long_name')}"
     lo, hi = math.inf, -math.inf
     for block in _iter_flat(var, var.shape):
         lo, hi = min(lo, float(block.min())), max(hi, float(block.max()))

@@ -11,7 +11,7 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     description = "free text"
 
     [design]
-    kind = "grid"                  # "grid" | "doe"  (see DESIGN_KINDS to add kinds)
+    kind = "grid"                  # "grid" | "doe" | "scene" (DESIGN_KINDS adds kinds)
     alpha = 1.5                    # grid axis: a number, a list, or a range table:
     beta = [1.0, 1.5]
     gamma = {start = 0.0, stop = 0.1, num = 1000}                  # linear by default
@@ -26,8 +26,30 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     gamma = {min = 1e-4, max = 1.0, scale = "log"}                 # log-uniform
     beta = 1.5                     # a number fixes the axis (not sampled)
 
+    [design]                       # ... or a physical scene (SI units), mapped to
+    kind = "scene"                 # (alpha, beta, gamma, g~) by sweep.model.scale, eq. (2)
+    g = 9.81                       # gravity [m/s^2] (default 9.81)
+    v0 = {start = 0.01, stop = 10.0, num = 100, spacing = "log"}   # impact speeds [m/s]
+    F = [0.0, 1.0, 10.0]           # constant loads [N] (a number, list or range, as above)
+
+    [design.materials.steel]       # one table per material; its name is a coordinate
+    law = "kk"                     # a name of sweep.registry.MODELS, or alpha = .., beta = ..
+    m = 0.154                      # mass [kg]                 ... or radius and density
+    k = 3.6138e10                  # stiffness [N/m^alpha]     ... or radius, E, nu (Hertz)
+    gamma0 = 1.5237e-6             # damping [s m^(alpha-beta)] ... or damping = {model = ..}
+
+    [design.materials.glass]       # from material properties (docs/scenes.md)
+    law = "kk"
+    radius = 1e-3                  # [m]
+    density = 2500.0               # [kg/m^3]
+    E = 63e9                       # Young's modulus [Pa]
+    nu = 0.22                      # Poisson's ratio
+    floor = {E = 63e9, nu = 0.22}  # the floor's (omitted: rigid)
+    damping = {model = "target_e", e = 0.97, v0 = 1.0}   # numerical e at v0 [m/s], g, F = 0
+    # or {model = "tsuji", e = 0.9} (law "tti") or {model = "kuwabara_kono", eta1 = .., eta2 = ..}
+
     [outputs]
-    e = ["numeric", "ord1"]        # or "all": variables e_<method>
+    e = ["numeric", "ord1"]        # or "all" (every method but "auto"): variables e_<method>
     fields = ["status", "error_ord1"]   # or "all" (sticks, t_f, u_max, n_steps, status,
                                         # error_<m> for every approximation in e)
 
@@ -38,6 +60,9 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
 
     [options.ord2_approx]          # per-method options passed to sweep.api.cor
     n = 21
+
+    [options.auto]                 # e = ["auto"]: the cheapest method within tol per point
+    tol = 1e-4                     # (and the integrator's options, for the points it serves)
 
     [run]
     chunk_size = 131072            # points per chunk (resume and progress granularity)
@@ -76,7 +101,8 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 __all__ = [
-    "ConfigError", "Config", "GridSpec", "DoESpec", "Bound", "Outputs", "IntegratorSettings",
+    "ConfigError", "Config", "GridSpec", "DoESpec", "SceneSpec", "MaterialSpec", "Bound",
+    "Outputs", "IntegratorSettings", "DAMPING_MODELS",
     "load", "loads", "PARAMETERS", "METHODS", "APPROXIMATIONS", "INTEGRATOR_FIELDS",
     "DESIGN_KINDS", "SAMPLERS", "DEFAULT_CHUNK_SIZE",
 ]
@@ -178,8 +204,8 @@ class _Table:
                 self.error(name, f"unknown key{extra}; allowed keys here: {allowed}")
 
 
-def _check_domain(tab, key, name, value):
-    parameter = registry.PARAMETERS[name]
+def _check_domain(tab, key, name, value, domain=None):
+    parameter = (domain or {**registry.PARAMETERS, **registry.PHYSICAL})[name]
     if not parameter.ok(value):
         tab.error(key, f"must be {parameter.rule}", value)
 
@@ -376,12 +402,175 @@ def _parse_doe(design):
     return DoESpec(sampler=sampler, n=n, seed=seed, scramble=scramble, bounds=bounds)
 
 
+# --------------------------------------------------------------------------- scene
+
+@dataclasses.dataclass(frozen=True)
+class MaterialSpec:
+    """One named material of a scene, as given (SI units; None: not given).
+
+    The contact law is ``(alpha, beta)``; ``m`` or (``radius``, ``density``) gives the mass,
+    ``k`` or (``radius``, ``E``, ``nu``, floor ``floor_E``, ``floor_nu``) the stiffness, and
+    ``gamma0`` or ``damping`` (a model name and its parameters) the damping.
+    :func:`sweep.sweeps.design.resolve_material` turns it into (m, k, gamma0).
+    """
+
+    name: str
+    alpha: float
+    beta: float
+    m: float | None = None
+    k: float | None = None
+    gamma0: float | None = None
+    radius: float | None = None
+    density: float | None = None
+    E: float | None = None
+    nu: float | None = None
+    floor_E: float = math.inf
+    floor_nu: float = 0.0
+    damping: tuple = ()
+
+    @property
+    def damping_model(self):
+        return dict(self.damping).get("model")
+
+    def damping_params(self):
+        return {k: v for k, v in self.damping if k != "model"}
+
+
+@dataclasses.dataclass(frozen=True)
+class SceneSpec:
+    """A physical scene: materials x impact speeds v0 [m/s] x loads F [N] under gravity g.
+
+    ``spacing`` holds ``"log"`` or ``"linear"`` per axis (how the values were given).
+    """
+
+    materials: tuple
+    v0: tuple
+    F: tuple
+    g: float
+    spacing: tuple = (("v0", "linear"), ("F", "linear"))
+    kind: str = "scene"
+
+    @property
+    def shape(self):
+        return (len(self.materials), len(self.v0), len(self.F))
+
+    @property
+    def size(self):
+        return math.prod(self.shape)
+
+
+#: Damping models of a material and their parameters (``damping = {model = ..., ...}``).
+DAMPING_MODELS = {
+    "target_e": ("e", "v0"),              # numerical CoR e at impact speed v0 (root-finding)
+    "tsuji": ("e",),                      # Tsuji-Tanaka-Ishida law: closed form from e
+    "kuwabara_kono": ("eta1", "eta2"),    # viscous constants of the bead material
+}
+_MATERIAL_KEYS = ("radius", "density", "E", "nu")
+
+
+def _physical(tab, key, default=dataclasses.MISSING):
+    """A number in the domain of a physical or material quantity of the registry (absent:
+    ``default``, or an error if there is none)."""
+    if default is not dataclasses.MISSING and not tab.has(key):
+        tab.used.add(key)
+        return default
+    domain = {**registry.PHYSICAL, **registry.MATERIAL}
+    value = tab.get(key, _is_number, f"a finite number [{domain[key].units}]")
+    _check_domain(tab, key, key, value, domain)
+    return float(value)
+
+
+def _scene_law(tab):
+    if tab.has("law"):
+        law = tab.get("law", lambda v: v in registry.MODELS,
+                      " | ".join(map(repr, registry.MODELS)))
+        if tab.has("alpha") or tab.has("beta"):
+            tab.error("law", "give either law or alpha and beta, not both", law)
+        return registry.MODELS[law]
+    values = []
+    for name in ("alpha", "beta"):
+        value = tab.get(name, _is_number, "a finite number (or give law = \"kk\" etc.)")
+        _check_domain(tab, name, name, value)
+        values.append(float(value))
+    return tuple(values)
+
+
+def _either(tab, direct, derived, only_derived):
+    """Require the key ``direct`` or every key of ``derived``; ``only_derived`` (a key used
+    for nothing else) must not come with ``direct``."""
+    if tab.has(direct) and tab.has(only_derived):
+        tab.error(only_derived, f"derives {direct}, which is given: give one or the other")
+    if tab.has(direct) or all(tab.has(k) for k in derived):
+        return
+    missing = [k for k in derived if not tab.has(k)]
+    tab.error(direct, f"is required, or derive it from {', '.join(derived)} "
+                      f"(missing: {', '.join(missing)})")
+
+
+def _scene_damping(tab, law):
+    if tab.has("gamma0") == tab.has("damping"):
+        tab.error("gamma0", "give exactly one of gamma0 [s m^(alpha-beta)] and damping = "
+                            "{model = ...}")
+    if tab.has("gamma0"):
+        return _physical(tab, "gamma0"), ()
+    sub = tab.table("damping")
+    model = sub.get("model", lambda v: v in DAMPING_MODELS,
+                    " | ".join(map(repr, DAMPING_MODELS)))
+    params = {key: _physical(sub, key) for key in DAMPING_MODELS[model]}
+    sub.finish()
+    need = {"tsuji": registry.MODELS["tti"], "kuwabara_kono": registry.MODELS["kk"]}
+    if model in need and law != need[model]:
+        sub.error("model", f"applies to the law (alpha, beta) = {need[model]} only, got "
+                           f"{law}", model)
+    if model == "kuwabara_kono" and not (tab.has("E") and tab.has("nu")):
+        sub.error("model", "kuwabara_kono needs the bead's E and nu in the material", model)
+    return None, (("model", model),) + tuple(sorted(params.items()))
+
+
+def _parse_material(tab, name):
+    alpha, beta = _scene_law(tab)
+    _either(tab, "m", ("radius", "density"), "density")
+    _either(tab, "k", ("radius", "E", "nu"), "floor")
+    props = {key: _physical(tab, key, None) for key in ("m", "k") + _MATERIAL_KEYS}
+    if props["k"] is None and alpha != 1.5:
+        tab.error("E", "Hertz stiffness (from radius, E, nu) needs alpha = 1.5", alpha)
+    floor = tab.table("floor")
+    floor_E, floor_nu = _physical(floor, "E", math.inf), _physical(floor, "nu", 0.0)
+    floor.finish()
+    gamma0, damping = _scene_damping(tab, (alpha, beta))
+    tab.finish()
+    return MaterialSpec(name=name, alpha=alpha, beta=beta, gamma0=gamma0, floor_E=floor_E,
+                        floor_nu=floor_nu, damping=damping, **props)
+
+
+def _scene_axis(design, name):
+    values = _grid_axis(design, name)
+    raw = design.data[name]
+    spacing = raw.get("spacing", "linear") if isinstance(raw, dict) else "linear"
+    return values, spacing
+
+
+def _parse_scene(design):
+    mats = design.table("materials", required=True)
+    if not mats.data:
+        design.error("materials", "must name at least one material ([design.materials.NAME])")
+    materials = tuple(_parse_material(mats.table(name), name) for name in list(mats.data))
+    mats.finish()
+    v0, v0_spacing = _scene_axis(design, "v0")
+    F, F_spacing = _scene_axis(design, "F")
+    g = design.get("g", _is_number, "a finite number [m/s^2]", 9.81)
+    design.finish()
+    return SceneSpec(materials=materials, v0=v0, F=F, g=float(g),
+                     spacing=(("v0", v0_spacing), ("F", F_spacing)))
+
+
 #: Design kinds: ``design.kind`` -> parser of the ``[design]`` table. A new kind (e.g. the
 #: physical "scene" mapped to (gamma, g~) by sweep.model.scale) registers its parser here
 #: and a matching builder in ``sweep.sweeps.design.BUILDERS``; nothing else needs to change.
 DESIGN_KINDS: dict[str, Callable[[_Table], Any]] = {
     "grid": _parse_grid,
     "doe": _parse_doe,
+    "scene": _parse_scene,
 }
 
 
@@ -425,6 +614,11 @@ class Outputs:
         wanted = set(self.methods) | set(self.error_methods)
         return tuple(m for m in registry.approximations() if m in wanted)
 
+    @property
+    def composites(self):
+        """Composite methods to evaluate (``"auto"``; their own fields need them stored)."""
+        return tuple(m for m in registry.composites() if m in self.methods)
+
 
 def _name_list(tab, key, allowed, what):
     value = tab.raw(key)
@@ -440,8 +634,14 @@ def _name_list(tab, key, allowed, what):
     return tuple(value)
 
 
-def _check_field(tab, f):
+def _check_field(tab, f, methods):
     approximations = registry.approximations()
+    own = registry.method_fields()
+    if f in own:
+        if own[f][0] not in methods:
+            tab.error("fields", f"is a field of method {own[f][0]!r}, which outputs.e must "
+                                "list", f)
+        return
     if f == "error_numeric":
         tab.error("fields", "error fields compare an approximation with e_numeric; "
                             "error_numeric would be identically 0", f)
@@ -451,23 +651,27 @@ def _check_field(tab, f):
                       f"error_<{'|'.join(approximations)}>", f)
     elif f not in registry.integrator_fields():
         tab.error("fields", "unknown field; expected one of "
-                  f"{', '.join(registry.integrator_fields())} or error_<method>", f)
+                  f"{', '.join(registry.integrator_fields() + tuple(own))} or "
+                  "error_<method>", f)
 
 
 def _parse_outputs(tab):
     methods = fields = ()
     all_methods = tuple(registry.METHODS)
     if tab.has("e"):
-        methods = _name_list(tab, "e", all_methods, "method")
+        # "all": every method computing e its own way; a composite one is asked for by name.
+        methods = _name_list(tab, "e", [m for m in all_methods if m not in
+                                        registry.composites()], "method")
         for m in methods:
             if m not in all_methods:
                 tab.error("e", f"unknown method; expected one of {', '.join(all_methods)}", m)
     errors = tuple(f"error_{m}" for m in registry.approximations())
+    own = tuple(f for f, (m, _) in registry.method_fields().items() if m in methods)
     if tab.has("fields"):
-        fields = _name_list(tab, "fields", registry.integrator_fields()
+        fields = _name_list(tab, "fields", registry.integrator_fields() + own
                             + tuple(e for e in errors if e[len("error_"):] in methods), "field")
         for f in fields:
-            _check_field(tab, f)
+            _check_field(tab, f, methods)
     tab.used.update({"e", "fields"})
     tab.finish()
     if not methods and not fields:
@@ -475,7 +679,7 @@ def _parse_outputs(tab):
                        "field in outputs.fields", [])
     # Stable order whatever the order in the file: equal configs give equal datasets.
     order = {name: i for i, name in enumerate(all_methods)}
-    forder = {name: i for i, name in enumerate(registry.integrator_fields() + errors)}
+    forder = {name: i for i, name in enumerate(registry.integrator_fields() + own + errors)}
     return Outputs(methods=tuple(sorted(methods, key=order.__getitem__)),
                    fields=tuple(sorted(fields, key=forder.__getitem__)))
 
@@ -525,7 +729,7 @@ def _parse_integrator(tab):
 
 def _parse_options(tab):
     options = {}
-    approximations = registry.approximations()
+    approximations = registry.approximations() + registry.composites()
     for name in list(tab.data):
         if name not in approximations:
             hint = " (the integrator's options go in [integrator])" if name == "numeric" else ""

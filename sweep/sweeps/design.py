@@ -14,12 +14,23 @@ independent of the chunk size and lets an interrupted run resume at any chunk.
   .LatinHypercube``, built once, it is a global permutation) or pseudo-random uniform
   (counter-based blocks of a seeded ``SeedSequence``).
 
-New design kinds (the physical "scene" of a later issue) add a builder to :data:`BUILDERS`
-under the same ``design.kind`` as their parser in :data:`sweep.sweeps.config.DESIGN_KINDS`.
+* :class:`SceneDesign` -- a physical scene: named materials x impact speeds v0 x loads F
+  under gravity g, flat index in C order over (material, v0, F); each point is scaled to
+  (alpha, beta, gamma, g~) by :func:`sweep.model.scale` (eq. (2)). The materials' mass,
+  stiffness and damping are resolved once, when the design is built
+  (:func:`resolve_material`, :mod:`sweep.materials`).
+
+Every design says how its results are stored (:meth:`Design.layout`, a
+:class:`sweep.store.Layout`). New design kinds add a builder to :data:`BUILDERS` under the
+same ``design.kind`` as their parser in :data:`sweep.sweeps.config.DESIGN_KINDS`.
+
+Floor 4: may import :mod:`sweep.sweeps.config`, :mod:`sweep.materials`, :mod:`sweep.model`,
+:mod:`sweep.store` (the layout), numpy and scipy.
 """
 from __future__ import annotations
 
 import abc
+import dataclasses
 import math
 import operator
 import warnings
@@ -28,10 +39,12 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.stats import qmc
 
-from sweep.sweeps.config import PARAMETERS, DoESpec, GridSpec
+from sweep import materials, model, store
+from sweep.sweeps.config import (PARAMETERS, ConfigError, DoESpec, GridSpec, MaterialSpec,
+                                 SceneSpec)
 
-__all__ = ["Design", "GridDesign", "DoEDesign", "build", "chunk_bounds", "Chunks",
-           "BUILDERS"]
+__all__ = ["Design", "GridDesign", "DoEDesign", "SceneDesign", "Material", "resolve_material",
+           "build", "chunk_bounds", "Chunks", "BUILDERS"]
 
 
 def chunk_bounds(size, chunk_size):
@@ -140,6 +153,15 @@ class Design(abc.ABC):
     def describe(self):
         """One line for humans and the dataset's attributes."""
         return f"{self.kind} design of {self.size} points"
+
+    def layout(self) -> store.Layout:
+        """How the results are stored: grid axes as coordinates, or the four parameters as
+        per-point coordinates of a scattered design."""
+        if self.axes:
+            return store.Layout(dims=self.dims, shape=self.shape, axes=self.axes,
+                                spacing=self.spacing)
+        return store.Layout(dims=self.dims, shape=self.shape, axes={},
+                            point_coords=PARAMETERS)
 
 
 class GridDesign(Design):
@@ -276,6 +298,141 @@ class DoEDesign(Design):
                 + ", ".join(axes))
 
 
+# --------------------------------------------------------------------------- scenes
+
+@dataclasses.dataclass(frozen=True)
+class Material:
+    """A material of a scene with its contact law resolved (SI units).
+
+    Attributes
+    ----------
+    name : str
+    m, k, gamma0, alpha, beta : float
+        Mass [kg], stiffness [N m^-alpha], damping [s m^(alpha-beta)], exponents of law (1).
+    origin : str
+        How m, k and gamma0 were obtained (given, or which formula).
+    """
+
+    name: str
+    m: float
+    k: float
+    gamma0: float
+    alpha: float
+    beta: float
+    origin: str = "given"
+
+
+def _resolve_damping(spec: MaterialSpec, m: float, k: float, g: float) -> tuple[float, str]:
+    model_name, p = spec.damping_model, spec.damping_params()
+    if model_name is None:
+        return spec.gamma0, "gamma0 given"
+    if model_name == "tsuji":
+        return materials.tsuji_gamma0(p["e"], m, k), f"Tsuji relation, e = {p['e']:g}"
+    if model_name == "kuwabara_kono":
+        return (materials.kuwabara_kono_gamma0(p["eta1"], p["eta2"], spec.E, spec.nu),
+                "Kuwabara-Kono viscous constant (Brilliantov et al. 1996)")
+    gamma0 = materials.gamma0_for_cor(p["e"], p["v0"], m, k, spec.alpha, spec.beta, g=g)
+    return gamma0, f"numerical e = {p['e']:g} at v0 = {p['v0']:g} m/s"
+
+
+def resolve_material(spec: MaterialSpec, g: float = 9.81) -> Material:
+    """Mass, stiffness and damping of a material as the scene gives them (docs/scenes.md).
+
+    Raises
+    ------
+    ConfigError
+        A value no formula accepts, named with the material.
+    """
+    try:
+        if spec.m is None:
+            m, how_m = materials.sphere_mass(spec.radius, spec.density), "m from R, rho"
+        else:
+            m, how_m = spec.m, "m given"
+        if spec.k is None:
+            k = materials.hertz_stiffness(spec.radius, spec.E, spec.nu, spec.floor_E,
+                                          spec.floor_nu)
+            how_k = "k from Hertz (R, E, nu" + (", floor)" if math.isfinite(spec.floor_E)
+                                                else ", rigid floor)")
+        else:
+            k, how_k = spec.k, "k given"
+        gamma0, how_d = _resolve_damping(spec, m, k, g)
+    except ValueError as exc:
+        raise ConfigError(f"design.materials.{spec.name}: {exc}") from None
+    return Material(spec.name, float(m), float(k), float(gamma0), spec.alpha, spec.beta,
+                    f"{how_m}; {how_k}; gamma0 from {how_d}")
+
+
+class SceneDesign(Design):
+    """Materials x v0 x F under gravity g, each point scaled to (alpha, beta, gamma, g~).
+
+    Stored with dimensions (material, v0, F): the scaled gamma and g~ as data variables on
+    them, the materials' m, k, gamma0, alpha, beta on ``material`` and g as a scalar.
+    """
+
+    kind = "scene"
+    dims = ("material", "v0", "F")
+    #: Properties of each material stored in the dataset (per-material variables).
+    MATERIAL_VARIABLES = ("m", "k", "gamma0", "alpha", "beta")
+
+    def __init__(self, spec: SceneSpec):
+        self.spec = spec
+        self.materials = tuple(resolve_material(m, spec.g) for m in spec.materials)
+        self.shape = spec.shape
+        self._v0 = np.asarray(spec.v0, dtype=np.float64)
+        self._F = np.asarray(spec.F, dtype=np.float64)
+        self._props = {name: np.array([getattr(m, name) for m in self.materials])
+                       for name in self.MATERIAL_VARIABLES}
+        for mat in self.materials:
+            self._check_loads(mat)
+
+    def _check_loads(self, mat):
+        # g + F/m >= 0 at every load (scale names the value); v0 does not enter the check.
+        try:
+            model.scale(mat.m, mat.k, mat.gamma0, self._v0[0], mat.alpha, mat.beta,
+                        self.spec.g, self._F)
+        except ValueError as exc:
+            raise ConfigError(f"design.materials.{mat.name}: {exc} (m = {mat.m:.6g} kg, "
+                              f"g = {self.spec.g:g} m/s^2, F from {self._F.min():g} N)") \
+                from None
+
+    @property
+    def axes(self):
+        return {"material": np.array([m.name for m in self.materials]), "v0": self._v0.copy(),
+                "F": self._F.copy()}
+
+    def points(self, start, stop):
+        i, j, l = np.unravel_index(np.arange(start, stop, dtype=np.int64), self.shape)
+        p = {name: values[i] for name, values in self._props.items()}
+        gamma, gtilde = model.scale(p["m"], p["k"], p["gamma0"], self._v0[j], p["alpha"],
+                                    p["beta"], self.spec.g, self._F[l])
+        return tuple(np.ascontiguousarray(x, dtype=np.float64)
+                     for x in (p["alpha"], p["beta"], np.atleast_1d(gamma),
+                               np.atleast_1d(gtilde)))
+
+    def layout(self) -> store.Layout:
+        constants = {name: (("material",), values) for name, values in self._props.items()}
+        constants["g"] = ((), self.spec.g)
+        attrs = {"material": {"long_name": "material",
+                              "description": "name of the bead / floor material of the scene "
+                                             "(design.materials)",
+                              "origin": "; ".join(f"{m.name}: {m.origin}"
+                                                  for m in self.materials)}}
+        return store.Layout(dims=self.dims, shape=self.shape, axes=self.axes,
+                            spacing=dict(self.spec.spacing), point_vars=("gamma", "gtilde"),
+                            constants=constants, attrs=attrs)
+
+    def describe(self):
+        mats = ", ".join(f"{m.name} (alpha={m.alpha:g}, beta={m.beta:g}, m={m.m:.6g} kg, "
+                         f"k={m.k:.6g}, gamma0={m.gamma0:.6g})" for m in self.materials)
+        spacing = dict(self.spec.spacing)
+        n = len(self.materials)
+        return (f"scene design: {n} material{'s' if n != 1 else ''} [{mats}] x "
+                f"v0[{self.shape[1]}] in [{self._v0.min():g}, {self._v0.max():g}] m/s "
+                f"({spacing['v0']}) x "
+                f"F[{self.shape[2]}] in [{self._F.min():g}, {self._F.max():g}] N, "
+                f"g = {self.spec.g:g} m/s^2 = {self.size} points")
+
+
 def _make_engine(cls, d, seed, **kw):
     # scipy >= 1.15 calls the seed `rng`; older versions only know `seed`.
     try:
@@ -288,6 +445,7 @@ def _make_engine(cls, d, seed, **kw):
 BUILDERS = {
     "grid": GridDesign,
     "doe": DoEDesign,
+    "scene": SceneDesign,
 }
 
 

@@ -42,10 +42,10 @@ kernels, design, saving, writing) and ``points_per_second`` = points / ``kernel_
 On a Dask cluster the kernels load on the workers: no warm-up runs, no ``compile_time_s``
 is written, and kernel times include the workers' first loads.
 
-Floor 4: may import :mod:`sweep.api`, :mod:`sweep.store`, :mod:`sweep.sweeps.config`,
-:mod:`sweep.sweeps.design`, :mod:`sweep.sweeps.limits`, :mod:`sweep.sweeps.preflight` and
-:mod:`sweep._version` (and, lazily, tqdm, Dask and numba's thread settings); nothing of the
-reports or the command line.
+Floor 4: may import :mod:`sweep.api`, :mod:`sweep.registry`, :mod:`sweep.store`,
+:mod:`sweep.sweeps.config`, :mod:`sweep.sweeps.design`, :mod:`sweep.sweeps.limits`,
+:mod:`sweep.sweeps.preflight` and :mod:`sweep._version` (and, lazily, tqdm, Dask and numba's
+thread settings); nothing of the reports or the command line.
 """
 from __future__ import annotations
 
@@ -102,6 +102,9 @@ class ComputePlan:
         Per-method keyword arguments of :func:`sweep.api.cor`.
     variables : tuple of str
         Variables returned, in storage order.
+    composites : tuple of str
+        Composite methods (``"auto"``) evaluated by :func:`sweep.api.cor_fields`: their e
+        and their own fields (``method_used``).
     """
 
     integrate: bool
@@ -109,15 +112,22 @@ class ComputePlan:
     approximations: tuple
     options: dict
     variables: tuple
+    composites: tuple = ()
 
     @classmethod
     def from_config(cls, cfg: _config.Config) -> ComputePlan:
         """The plan of a validated configuration (its outputs, integrator and options)."""
         out = cfg.outputs
+        options = {m: cfg.method_options(m) for m in out.approximations}
+        for m in out.composites:
+            # A composite method integrates some points: with [integrator]'s settings
+            # unless its own options say otherwise.
+            accepted = {opt.name for opt in registry.METHODS[m].options}
+            options[m] = {**{k: v for k, v in cfg.integrator.kwargs().items()
+                             if k in accepted}, **cfg.method_options(m)}
         return cls(integrate=out.needs_integration, integrator=cfg.integrator.kwargs(),
-                   approximations=out.approximations,
-                   options={m: cfg.method_options(m) for m in out.approximations},
-                   variables=out.variables)
+                   approximations=out.approximations, options=options,
+                   variables=out.variables, composites=out.composites)
 
 
 def compute_chunk(plan: ComputePlan, alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
@@ -143,6 +153,11 @@ def compute_chunk(plan: ComputePlan, alpha: np.ndarray, beta: np.ndarray, gamma:
         res = api.integrate(alpha, beta, gamma, gtilde, **plan.integrator)
     approx = {m: api.cor(alpha, beta, gamma, gtilde, method=m, **plan.options.get(m, {}))
               for m in plan.approximations}
+    own = {}  # the composite methods' e and fields
+    for m in plan.composites:
+        out = api.cor_fields(alpha, beta, gamma, gtilde, method=m, **plan.options.get(m, {}))
+        approx[m] = out.pop("e")
+        own.update({name: value for name, value in out.items() if name != "status"})
     seconds = time.perf_counter() - t0
     arrays = {}
     for name in plan.variables:
@@ -154,7 +169,7 @@ def compute_chunk(plan: ComputePlan, alpha: np.ndarray, beta: np.ndarray, gamma:
             # The integration ran once above; every error field shares it.
             value = approx[name[6:]] - res.e
         else:
-            value = getattr(res, name)
+            value = own[name] if name in own else getattr(res, name)
         dtype, _ = store.variable_spec(name)
         arrays[name] = np.ascontiguousarray(value, dtype=dtype).reshape(-1)
     return arrays, seconds
@@ -268,31 +283,13 @@ def source_sha256() -> str:
     return h.hexdigest()
 
 
-def _layout(design):
-    if design.axes:
-        return store.Layout(dims=design.dims, shape=design.shape, axes=design.axes,
-                            spacing=design.spacing)
-    return store.Layout(dims=design.dims, shape=design.shape, axes={},
-                        point_coords=_config.PARAMETERS)
-
-
 def _integrator_attrs(plan):
     if not plan.integrate:
         return {"integrator": "not run (no requested output needs the numerical integration)"}
-    # Every option of the "numeric" method, defaults resolved (netCDF has no boolean type:
-    # flags are stored as 0 / 1).
+    # Every option of the "numeric" method, defaults resolved.
     return {"integrator": "fixed-step Dormand-Prince 5(4), three phases of Algorithm 1",
-            **{f"integrator_{key}": _attr_value(key, value)
+            **{f"integrator_{key}": registry.METHODS["numeric"].option(key).to_attr(value)
                for key, value in plan.integrator.items()}}
-
-
-def _attr_value(key, value):
-    """An integrator option as a netCDF attribute, in the type of its registry default
-    (TOML's ``steps = 16`` is the real 16.0); booleans as 0 / 1 (netCDF has none)."""
-    default = registry.METHODS["numeric"].option(key).default
-    if isinstance(default, bool):
-        return int(bool(value))
-    return type(default)(value)
 
 
 def _static_attrs(cfg, design, plan, chunk_size):
@@ -547,7 +544,7 @@ def _prepare(cfg, output, chunk_size, quiet, log):
         raise RunError(f"chunk size must be an integer >= 1, got {chunk_size!r}")
     design = _design.build(cfg.design)
     job = _Job(cfg=cfg, design=design, plan=ComputePlan.from_config(cfg),
-               layout=_layout(design), output=output, chunk_size=int(chunk_size), log=log,
+               layout=design.layout(), output=output, chunk_size=int(chunk_size), log=log,
                result=RunResult(output=output, n_points=design.size))
     job.pre = _preflight_mod.preflight(job.layout, job.plan.variables, job.chunk_size,
                                        job.output)
@@ -720,7 +717,7 @@ def _tasks(job, partial, done, behind, totals, bar) -> Iterator[tuple]:
     on the way (in order, so storage chunks are written sequentially). A saved chunk that
     fails verification is recomputed."""
     for index, (start, stop) in enumerate(job.chunks):
-        need_points = index not in done or job.layout.point_coords
+        need_points = index not in done or job.layout.per_point
         points = _chunk_points(job, start, stop) if need_points else None
         if index in done:
             loaded = partial.load_chunk(index, start, stop)

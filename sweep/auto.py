@@ -1,0 +1,239 @@
+"""The ``"auto"`` method: per point, the cheapest method whose validated error is within tol.
+
+For every point ``(alpha, beta, gamma, g~)`` the kernel :func:`auto_cor` looks up a bound on
+the absolute error of each closed form of the report (eqs. (22), (23), (25), (36)-(38)) in an
+*error model*, serves the point with the cheapest one whose bound is ``<= tol``, and
+integrates (eqs. (3), (4), Algorithm 1) where none qualifies or where the point lies outside
+the model. ``method_used`` (flag codes :data:`sweep.registry.SERVED_BY`) records the choice.
+
+The error model (:class:`ErrorModel`, shipped as ``sweep/data/error_model.npz`` and rebuilt
+by ``sweep report error-model``, :mod:`sweep.reports.error_model`) is a table of bounds:
+
+* over (gamma, g~): cells between ``gamma_edges`` and ``gtilde_edges`` (first edge 0, then
+  log-spaced); a cell's bound is the largest error measured against the package's own
+  numerical CoR at sample points on and inside the cell *and its neighbours* (the stick /
+  rebound boundary, where every closed form fails, cannot hide between samples), times a
+  safety factor, and never below a floor (the judge's own accuracy);
+* over (alpha, beta): at the nodes ``alpha`` x ``beta`` (``bound``), and between them
+  (``between``: the largest bound of the four surrounding nodes, taken over two
+  neighbouring cells on each side, for exponents that are not nodes);
+* outside the table (gamma or g~ above its last edge, exponents outside the nodes' range):
+  no bound, the point is integrated.
+
+Bounds are stored as int8 codes ``ceil(CODES_PER_DECADE log10(bound))`` (rounded up, so a
+code never understates a bound; :data:`NO_BOUND` means none).
+
+The integrator's resolution is the ``steps`` option (the accuracy of the integrated points
+is the integrator's, ~1e-10 at the default 96 steps, so a ``tol`` below ~1e-8 asks for
+more steps); when the ``"numeric"`` method registers a ``tol`` option of its own, ``auto``
+passes its ``tol`` to it.
+
+Owns: the error model's file format, the bound at a point and the per-point selection.
+May import: :mod:`sweep.registry` (the methods are called through it) and numpy. Floor 2.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sweep import registry
+
+__all__ = ["ErrorModel", "DATA_FILE", "CODES_PER_DECADE", "NO_BOUND", "encode", "decode",
+           "default_model", "select", "serve", "auto_cor"]
+
+#: The shipped error model.
+DATA_FILE = Path(__file__).resolve().parent / "data" / "error_model.npz"
+#: Resolution of the stored bounds: codes per decade (a bound is rounded up by < 1/8 decade).
+CODES_PER_DECADE = 8
+#: Code of "no bound": the method is never chosen there.
+NO_BOUND = np.int8(127)
+#: Version of the file format; :meth:`ErrorModel.load` refuses others.
+FORMAT = 1
+
+
+def encode(bound: np.ndarray) -> np.ndarray:
+    """Error bounds -> int8 codes, rounded up (inf, NaN or too large: :data:`NO_BOUND`)."""
+    b = np.asarray(bound, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = np.ceil(CODES_PER_DECADE * np.log10(np.maximum(b, 1e-300)))
+    c = np.where(np.isfinite(c) & (c < NO_BOUND), c, NO_BOUND)
+    return np.clip(c, -127, NO_BOUND).astype(np.int8)
+
+
+def decode(code: np.ndarray) -> np.ndarray:
+    """int8 codes -> error bounds (:data:`NO_BOUND` -> inf)."""
+    c = np.asarray(code, dtype=np.float64)
+    return np.where(c >= NO_BOUND, np.inf, 10.0 ** (c / CODES_PER_DECADE))
+
+
+def _bracket(nodes: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Indices of the nodes around x (equal when x is a node) and whether x is in range."""
+    i = np.clip(np.searchsorted(nodes, x, side="left"), 0, nodes.size - 1)
+    exact = nodes[i] == x
+    inside = (x >= nodes[0]) & (x <= nodes[-1])
+    lo = np.where(exact, i, np.maximum(i - 1, 0))
+    return lo, i, inside
+
+
+def _cell(edges: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Index of the cell ``[edges[i], edges[i+1]]`` holding x, and whether one does."""
+    i = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, edges.size - 2)
+    return i, (x >= edges[0]) & (x <= edges[-1])
+
+
+@dataclasses.dataclass(frozen=True)
+class ErrorModel:
+    """Bounds on the abs error of each closed form over (alpha, beta, gamma, g~).
+
+    Attributes
+    ----------
+    methods : tuple of str
+        The closed forms the model covers, cheapest first (the order of preference).
+    alpha, beta : ndarray
+        Exponent nodes (increasing).
+    gamma_edges, gtilde_edges : ndarray
+        Cell edges over gamma and g~ (increasing, first 0).
+    bound : ndarray of int8, shape (alpha, beta, gamma cell, g~ cell, method)
+        Codes of the bounds at the exponent nodes (see :func:`decode`).
+    between : ndarray of int8, shape (alpha - 1, beta - 1, gamma cell, g~ cell, method)
+        Codes of the bounds between exponent nodes.
+    info : dict
+        How the model was built (judge resolution, safety factor, floor, sampling, costs,
+        version, date); JSON-serialisable.
+    """
+
+    methods: tuple
+    alpha: np.ndarray
+    beta: np.ndarray
+    gamma_edges: np.ndarray
+    gtilde_edges: np.ndarray
+    bound: np.ndarray
+    between: np.ndarray
+    info: dict
+
+    def save(self, path: str | Path) -> None:
+        """Write the model as a compressed ``.npz`` (plain arrays plus JSON ``info``)."""
+        np.savez_compressed(
+            path, format=np.int64(FORMAT), methods=np.array(self.methods), alpha=self.alpha,
+            beta=self.beta, gamma_edges=self.gamma_edges, gtilde_edges=self.gtilde_edges,
+            bound=self.bound, between=self.between, info=np.array(json.dumps(self.info)))
+
+    @classmethod
+    def load(cls, path: str | Path = DATA_FILE) -> ErrorModel:
+        """Read a model written by :meth:`save`.
+
+        Raises
+        ------
+        ValueError
+            If the file has another format version or names an unregistered method.
+        """
+        with np.load(path, allow_pickle=False) as z:
+            if int(z["format"]) != FORMAT:
+                raise ValueError(f"{path}: error model format {int(z['format'])}, expected "
+                                 f"{FORMAT}; rebuild it with `sweep report error-model`")
+            model = cls(tuple(str(m) for m in z["methods"]), z["alpha"], z["beta"],
+                        z["gamma_edges"], z["gtilde_edges"], z["bound"], z["between"],
+                        json.loads(str(z["info"])))
+        unknown = [m for m in model.methods if m not in registry.SERVED_BY]
+        if unknown:
+            raise ValueError(f"{path}: unknown methods {unknown} in the error model")
+        return model
+
+    def bounds(self, alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
+               gtilde: np.ndarray) -> np.ndarray:
+        """Error bound of every method at flat arrays of points, shape ``(n, methods)``.
+
+        inf where the model has no bound (outside it, or the method is not defined).
+        """
+        a_lo, a_hi, a_in = _bracket(self.alpha, alpha)
+        b_lo, b_hi, b_in = _bracket(self.beta, beta)
+        g, g_in = _cell(self.gamma_edges, gamma)
+        h, h_in = _cell(self.gtilde_edges, gtilde)
+        on_node = (a_lo == a_hi) & (b_lo == b_hi)
+        # Between nodes: the cell of the exponent grid holding the point (a node that is not
+        # the last one belongs to the cell above it).
+        ai = np.minimum(a_lo, self.alpha.size - 2)
+        bi = np.minimum(b_lo, self.beta.size - 2)
+        code = np.where(on_node[:, None], self.bound[a_lo, b_lo, g, h],
+                        self.between[ai, bi, g, h] if self.between.size else NO_BOUND)
+        inside = a_in & b_in & g_in & h_in
+        return np.where(inside[:, None], decode(code), np.inf)
+
+
+@functools.lru_cache(maxsize=None)
+def default_model() -> ErrorModel:
+    """The shipped error model (``sweep/data/error_model.npz``), loaded once."""
+    return ErrorModel.load(DATA_FILE)
+
+
+def select(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: np.ndarray,
+           tol: float, model: ErrorModel | None = None) -> np.ndarray:
+    """Which method serves each point: :data:`sweep.registry.SERVED_BY` codes (int8).
+
+    The cheapest method of the model whose bound is ``<= tol``; ``"numeric"`` where none.
+    """
+    model = model or default_model()
+    ok = model.bounds(alpha, beta, gamma, gtilde) <= tol
+    served = np.array([registry.SERVED_BY[m] for m in model.methods], dtype=np.int8)
+    first = np.argmax(ok, axis=1) if ok.shape[1] else np.zeros(ok.shape[0], dtype=np.intp)
+    chosen = served[first] if served.size else np.zeros(ok.shape[0], dtype=np.int8)
+    return np.where(ok.any(axis=1), chosen, np.int8(registry.SERVED_BY["numeric"]))
+
+
+def _integrator_options(tol: float, options: dict[str, Any]) -> dict[str, Any]:
+    """The integration's options: auto's own, and its tol once the integrator has one."""
+    numeric = registry.METHODS["numeric"]
+    names = {opt.name for opt in numeric.options}
+    given = {k: v for k, v in options.items() if k in names}
+    if "tol" in names:
+        given["tol"] = tol
+    return numeric.check_options(given)
+
+
+def serve(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: np.ndarray,
+          codes: np.ndarray, tol: float, **options: Any) -> tuple[np.ndarray, np.ndarray]:
+    """e and status of flat arrays of points, each by the method its code names.
+
+    Parameters
+    ----------
+    codes : ndarray of int8
+        :data:`sweep.registry.SERVED_BY` code per point (what :func:`select` returns).
+    tol : float
+        Passed to the integrator once it has a ``tol`` option.
+    **options
+        The integrator's options for the integrated points.
+    """
+    e = np.empty(alpha.size)
+    status = np.empty(alpha.size, dtype=np.int8)
+    names = {code: name for name, code in registry.SERVED_BY.items()}
+    for code in np.unique(codes):
+        idx = np.flatnonzero(codes == code)
+        m = registry.METHODS[names[int(code)]]
+        opts = _integrator_options(tol, options) if m.integrates else m.check_options({})
+        e[idx], status[idx] = m.resolve()(alpha[idx], beta[idx], gamma[idx], gtilde[idx],
+                                          **opts)
+    return e, status
+
+
+def auto_cor(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: np.ndarray,
+             tol: float = 1e-6, **options: Any) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Kernel of ``"auto"`` over flat float64 arrays: ``(e, status, {"method_used": codes})``.
+
+    Parameters
+    ----------
+    alpha, beta, gamma, gtilde : ndarray
+        Flat arrays of equal length (scaled parameters of eq. (2)).
+    tol : float
+        Largest acceptable abs error on e [1].
+    **options
+        The integrator's options (``steps``, ``rest_tol``, ``max_steps``) for the points
+        that are integrated.
+    """
+    codes = select(alpha, beta, gamma, gtilde, tol)
+    e, status = serve(alpha, beta, gamma, gtilde, codes, tol, **options)
+    return e, status, {"method_used": codes}

@@ -1,0 +1,331 @@
+"""Lookup tables of the CoR for simulation codes: a scene's e(v0, F) interpolated and exported.
+
+A scene dataset (``sweep run`` of a ``design.kind = "scene"`` configuration) holds e on the
+grid (material, v0, F), with each material's m, k, gamma0, alpha, beta and the scene's g.
+:class:`Table` interpolates it:
+
+* along v0 and along F by monotone piecewise-cubic Hermite interpolation (PCHIP, Fritsch &
+  Carlson 1980; ``scipy.interpolate.PchipInterpolator``): where the tabulated e is monotone
+  along an axis the interpolant is too, and it never leaves the range of its neighbouring
+  values (so 0 <= e <= 1 holds);
+* in log v0 (log F) where the axis was given with ``spacing = "log"``;
+* no extrapolation: a query outside the table raises ``ValueError`` naming it.
+
+:meth:`Table.error` reports the interpolation error against direct computation (the same
+method and settings as the table, at the scaled point of eq. (2)) on *held-back points*:
+points inside every cell, at the quarter, half and three-quarter marks of each axis, which
+are not in the table. That maximum is the table's stated error: an estimate measured on a
+lattice four times finer, not a proof. :func:`lookup` is the one-call form.
+
+:func:`export` writes the table for codes that read plain files: CSV (one row per
+(material, v0, F), units in the header) or NumPy ``.npz`` (arrays on (material, v0, F)).
+
+Owns: interpolation of scene datasets, the held-back check and the export formats. May
+import: :mod:`sweep.api`, :mod:`sweep.model`, :mod:`sweep.registry`, numpy; scipy and
+xarray inside the functions (``import sweep`` stays light). Floor 3.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sweep import api, registry
+from sweep.model import scale
+
+__all__ = ["Table", "lookup", "export", "SCENE_DIMS", "HELD_BACK_FRACTIONS"]
+
+#: Dimensions of a scene dataset (sweep.sweeps.design.SceneDesign).
+SCENE_DIMS = ("material", "v0", "F")
+#: Where the held-back points sit inside each cell, as fractions of the cell (per axis).
+HELD_BACK_FRACTIONS = (0.25, 0.5, 0.75)
+_MATERIAL_VARIABLES = ("m", "k", "gamma0", "alpha", "beta")
+
+
+def _open(dataset: Any) -> Any:
+    import xarray as xr
+
+    if isinstance(dataset, (str, os.PathLike)):
+        with xr.open_dataset(dataset) as ds:
+            return ds.load()
+    return dataset
+
+
+def _default_variable(ds: Any) -> str:
+    for name in ("e_numeric", "e_auto"):
+        if name in ds:
+            return name
+    names = [n for n in ds.data_vars if str(n).startswith("e_")]
+    if not names:
+        raise ValueError("the dataset stores no e_<method> variable")
+    return str(names[0])
+
+
+def _pchip_columns(x: np.ndarray, y: np.ndarray, xq: np.ndarray) -> np.ndarray:
+    """PCHIP through ``(x, y[:, j])`` evaluated at ``xq[j]``, for every column j."""
+    from scipy.interpolate import PchipInterpolator
+
+    pp = PchipInterpolator(x, y, axis=0)
+    k = np.clip(np.searchsorted(x, xq, side="right") - 1, 0, x.size - 2)
+    t = xq - x[k]
+    c = pp.c[:, k, np.arange(xq.size)]
+    return ((c[0] * t + c[1]) * t + c[2]) * t + c[3]
+
+
+class Table:
+    """e(v0, F) of each material of a scene dataset, interpolated.
+
+    Parameters
+    ----------
+    dataset : path-like or xarray.Dataset
+        A scene dataset (dimensions material, v0, F).
+    variable : str, optional
+        The tabulated variable (default ``e_numeric``, else ``e_auto``, else the first
+        ``e_<method>``).
+
+    Raises
+    ------
+    ValueError
+        Not a scene dataset, or no such variable.
+    """
+
+    def __init__(self, dataset: Any, variable: str | None = None) -> None:
+        ds = _open(dataset)
+        if not all(d in ds.dims for d in SCENE_DIMS):
+            raise ValueError(f"not a scene dataset: dimensions {tuple(ds.dims)}, expected "
+                             f"{SCENE_DIMS}")
+        self.variable = variable or _default_variable(ds)
+        if self.variable not in ds:
+            raise ValueError(f"the dataset has no variable {self.variable!r}")
+        ds = ds.sortby(["v0", "F"])  # axes given as lists need not be increasing
+        self.values = ds[self.variable].transpose(*SCENE_DIMS).values.astype(np.float64)
+        self.materials = [str(m) for m in ds["material"].values]
+        self.v0 = ds["v0"].values.astype(np.float64)
+        self.F = ds["F"].values.astype(np.float64)
+        self.log = {axis: ds[axis].attrs.get("spacing") == "log" for axis in ("v0", "F")}
+        self.properties = {name: ds[name].values.astype(np.float64)
+                           for name in _MATERIAL_VARIABLES}
+        self.g = float(ds["g"].values)
+        self.method = self.variable[2:]
+        self.options = _method_options(ds.attrs, self.method)
+
+    # -- interpolation --------------------------------------------------------------------
+
+    def _coord(self, axis: str, values: np.ndarray) -> np.ndarray:
+        return np.log(values) if self.log[axis] else values
+
+    def _in_range(self, axis: str, q: np.ndarray) -> np.ndarray:
+        """The queries, clipped onto the table's range if within rounding of it.
+
+        Raises
+        ------
+        ValueError
+            A query outside the table (named).
+        """
+        nodes = getattr(self, axis)
+        lo, hi = nodes[0], nodes[-1]
+        slack = 1e-12 * max(abs(lo), abs(hi), 1e-300)
+        bad = ~((q >= lo - slack) & (q <= hi + slack))
+        if np.any(bad):
+            raise ValueError(f"{axis} = {float(q[bad][0])!r} is outside the table "
+                             f"[{lo:g}, {hi:g}]")
+        return np.clip(q, lo, hi)
+
+    def _material_index(self, material: Any, n: int) -> np.ndarray:
+        if material is None:
+            if len(self.materials) != 1:
+                raise ValueError(f"material is required: the table has {self.materials}")
+            return np.zeros(n, dtype=np.intp)
+        names = np.broadcast_to(np.asarray(material, dtype=object), (n,))
+        unknown = sorted({str(m) for m in names} - set(self.materials))
+        if unknown:
+            raise ValueError(f"unknown material {unknown[0]!r}; the table has {self.materials}")
+        return np.array([self.materials.index(str(m)) for m in names], dtype=np.intp)
+
+    def _along_F(self, z: np.ndarray, fq: np.ndarray) -> np.ndarray:
+        """(v0 nodes, queries): each material slice interpolated to the queries' F."""
+        from scipy.interpolate import PchipInterpolator
+
+        if self.F.size == 1:
+            return np.repeat(z[:, :1], fq.size, axis=1)
+        return PchipInterpolator(self._coord("F", self.F), z, axis=1)(self._coord("F", fq))
+
+    def _interpolate(self, i: int, vq: np.ndarray, fq: np.ndarray) -> np.ndarray:
+        a = self._along_F(self.values[i], fq)
+        if self.v0.size == 1:
+            return a[0]
+        return _pchip_columns(self._coord("v0", self.v0), a, self._coord("v0", vq))
+
+    def __call__(self, v0: Any, F: Any = None, material: Any = None) -> np.ndarray:
+        """Interpolated e [1] at impact speeds v0 [m/s] and loads F [N] (broadcast).
+
+        ``F`` may be omitted when the table has one load, ``material`` when it has one
+        material.
+        """
+        if F is None:
+            if self.F.size != 1:
+                raise ValueError(f"F is required: the table has loads {self.F.min():g} .. "
+                                 f"{self.F.max():g} N")
+            F = self.F[0]
+        vq, fq = (np.asarray(x, dtype=np.float64) for x in np.broadcast_arrays(v0, F))
+        shape = vq.shape
+        vq, fq = self._in_range("v0", vq.reshape(-1)), self._in_range("F", fq.reshape(-1))
+        idx = self._material_index(material, vq.size)
+        out = np.empty(vq.size)
+        for i in np.unique(idx):
+            sel = idx == i
+            out[sel] = self._interpolate(int(i), vq[sel], fq[sel])
+        return out.reshape(shape)
+
+    # -- direct computation and the held-back check ---------------------------------------
+
+    def direct(self, v0: Any, F: Any, material: Any = None) -> np.ndarray:
+        """e computed directly (the table's method and settings) at (v0, F, material)."""
+        vq, fq = (np.asarray(x, dtype=np.float64) for x in np.broadcast_arrays(v0, F))
+        idx = self._material_index(material, vq.size).reshape(vq.shape)
+        p = {name: values[idx] for name, values in self.properties.items()}
+        gamma, gtilde = scale(p["m"], p["k"], p["gamma0"], vq, p["alpha"], p["beta"], self.g,
+                              fq)
+        return np.asarray(api.cor(p["alpha"], p["beta"], gamma, gtilde, method=self.method,
+                                  **self.options))
+
+    def held_back_points(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Points inside the cells of every material's table: (material index, v0, F)."""
+        axes = []
+        for axis in ("v0", "F"):
+            x = self._coord(axis, getattr(self, axis))
+            inside = [x[:-1] + f * np.diff(x) for f in HELD_BACK_FRACTIONS] if x.size > 1 else []
+            lattice = np.sort(np.concatenate([x, *inside]))
+            axes.append((np.exp(lattice) if self.log[axis] else lattice,
+                         np.isin(lattice, x)))
+        (v, v_node), (f, f_node) = axes
+        vv, ff = np.meshgrid(v, f, indexing="ij")
+        keep = ~np.logical_and.outer(v_node, f_node)  # the table's own nodes are not held back
+        vv, ff = vv[keep], ff[keep]
+        n = len(self.materials)
+        return (np.repeat(np.arange(n), vv.size), np.tile(vv, n), np.tile(ff, n))
+
+    def error(self) -> dict[str, Any]:
+        """Interpolation error against direct computation on the held-back points.
+
+        Returns
+        -------
+        dict
+            ``max_abs`` (the stated error), ``median_abs``, ``n_points``, ``where`` (the
+            material, v0 [m/s] and F [N] of the largest difference), ``variable``.
+        """
+        idx, v, f = self.held_back_points()
+        names = np.array(self.materials, dtype=object)[idx]
+        d = np.abs(self(v, f, names) - self.direct(v, f, names))
+        d = np.where(np.isnan(d), np.inf, d)  # an invalid point is no agreement
+        worst = int(np.argmax(d)) if d.size else 0
+        return {"variable": self.variable, "n_points": int(d.size),
+                "max_abs": float(d.max()) if d.size else 0.0,
+                "median_abs": float(np.median(d)) if d.size else 0.0,
+                "where": {"material": str(names[worst]), "v0": float(v[worst]),
+                          "F": float(f[worst])} if d.size else {}}
+
+
+def _method_options(attrs: Mapping[str, Any], method: str) -> dict[str, Any]:
+    """The options the dataset was computed with (its global attributes)."""
+    m = registry.method(method)
+    prefix = "integrator_" if m.integrates else f"options_{method}_"
+    opts = {}
+    for opt in m.options:
+        value = attrs.get(prefix + opt.name)
+        if value is not None and not isinstance(value, str):
+            opts[opt.name] = opt.from_attr(value)
+    return m.check_options(opts)
+
+
+def lookup(dataset: Any, v0: Any, F: Any = None, material: Any = None,
+           variable: str | None = None) -> np.ndarray:
+    """Interpolated e [1] of a scene dataset at impact speeds v0 [m/s] and loads F [N].
+
+    One-call form of :class:`Table` (which also reports the interpolation error, see
+    :meth:`Table.error`): monotone PCHIP along v0 and F, in log where the axis is log.
+
+    Parameters
+    ----------
+    dataset : path-like or xarray.Dataset
+        Output of ``sweep run`` for a scene configuration.
+    v0, F : array_like
+        Impact speeds [m/s] and loads [N], broadcast together (F may be omitted when the
+        table has a single load).
+    material : str or array_like of str, optional
+        Material names (may be omitted when the table has one material).
+    variable : str, optional
+        Tabulated variable (default ``e_numeric``, else ``e_auto``).
+
+    Returns
+    -------
+    ndarray
+    """
+    return Table(dataset, variable)(v0, F, material)
+
+
+def _long_rows(ds: Any, variables: list[str]) -> tuple[list[str], list[list[Any]]]:
+    columns = ["material", "v0 [m/s]", "F [N]"] + [f"{v} [1]" for v in variables]
+    arrays = [ds[v].transpose(*SCENE_DIMS).values for v in variables]
+    rows = []
+    for i, name in enumerate(ds["material"].values):
+        for j, v0 in enumerate(ds["v0"].values):
+            for k, F in enumerate(ds["F"].values):
+                rows.append([str(name), repr(float(v0)), repr(float(F))]
+                            + [repr(float(a[i, j, k])) for a in arrays])
+    return columns, rows
+
+
+def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
+           variables: list[str] | None = None) -> Path:
+    """Write a scene's table as CSV or NumPy ``.npz``.
+
+    Parameters
+    ----------
+    dataset : path-like or xarray.Dataset
+        A scene dataset.
+    path : path-like
+        Output file.
+    fmt : {"csv", "npz"}, optional
+        Format (default: from the suffix of ``path``).
+    variables : list of str, optional
+        Per-point variables written (default: gamma, gtilde and every ``e_<method>``).
+
+    Returns
+    -------
+    Path
+        The file written. CSV: one row per (material, v0, F), the unit in each column name.
+        npz: ``material``, ``v0`` [m/s], ``F`` [N], each variable on (material, v0, F),
+        the per-material ``m``, ``k``, ``gamma0``, ``alpha``, ``beta``, ``g`` and a JSON
+        ``units`` string.
+    """
+    ds = _open(dataset)
+    path = Path(path)
+    fmt = fmt or path.suffix.lstrip(".")
+    if fmt not in ("csv", "npz"):
+        raise ValueError(f"format must be 'csv' or 'npz', got {fmt!r}")
+    if not all(d in ds.dims for d in SCENE_DIMS):
+        raise ValueError(f"not a scene dataset: dimensions {tuple(ds.dims)}")
+    if variables is None:
+        variables = [v for v in ("gamma", "gtilde") if v in ds] + [
+            str(v) for v in ds.data_vars if str(v).startswith("e_")]
+    if fmt == "csv":
+        columns, rows = _long_rows(ds, variables)
+        with open(path, "w", newline="", encoding="utf-8") as f:
+            w = csv.writer(f)
+            w.writerow(columns)
+            w.writerows(rows)
+        return path
+    units = {name: ds[name].attrs.get("units", "1") for name in
+             ["v0", "F", "g", *_MATERIAL_VARIABLES, *variables]}
+    np.savez(path, material=np.array([str(m) for m in ds["material"].values]),
+             v0=ds["v0"].values, F=ds["F"].values, g=ds["g"].values,
+             units=np.array(json.dumps(units)),
+             **{n: ds[n].values for n in _MATERIAL_VARIABLES},
+             **{v: ds[v].transpose(*SCENE_DIMS).values for v in variables})
+    return path

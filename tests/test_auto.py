@@ -1,0 +1,110 @@
+"""method = "auto": the cheapest method whose validated error is within tol (sweep.auto)."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+import sweep
+from sweep import auto, registry
+from sweep.reports import error_model
+from sweep.registry import SERVED_BY, Status
+from sweep.sweeps import config
+
+JUDGE_STEPS = 256.0
+
+
+@pytest.fixture(scope="module")
+def points_and_judge():
+    """Random points in and out of the error model (exponents at its nodes and between
+    them, gamma up to 3, g~ up to 300), with the fine-resolution integration as judge."""
+    pts = [np.concatenate(x) for x in zip(error_model.random_points(1500, seed=7),
+                                          error_model.random_points(1500, seed=8, on_nodes=False))]
+    judge = sweep.integrate(*pts, steps=JUDGE_STEPS)
+    coarse = sweep.cor(*pts)
+    # Decided outcomes only, and not the few points so close to the stick / rebound boundary
+    # that the integrator's own resolution decides them (the integrator is judged elsewhere).
+    keep = np.isin(judge.status, (Status.OK, Status.STUCK, Status.AT_REST))
+    keep &= np.abs(coarse - judge.e) < 1e-8
+    assert keep.mean() > 0.98
+    return [x[keep] for x in pts], judge.e[keep]
+
+
+@pytest.mark.parametrize("tol", [1e-2, 1e-4, 1e-6])
+def test_auto_is_within_tol_of_the_numerical_cor(points_and_judge, tol):
+    pts, e_judge = points_and_judge
+    out = sweep.cor_fields(*pts, method="auto", tol=tol)
+    err = np.abs(out["e"] - e_judge)
+    assert err.max() <= tol, (err.max(), np.argmax(err))
+    used = out["method_used"]
+    assert set(np.unique(used)) <= set(SERVED_BY.values())
+    assert (used != SERVED_BY["numeric"]).mean() > 0.3      # the closed forms do serve
+    # Outside the model (gamma > 1, g~ > 100, exponents > 3) the point is integrated.
+    outside = (pts[2] > 1.0) | (pts[3] > 100.0) | (pts[0] > 3.0) | (pts[1] > 3.0)
+    assert outside.any() and np.all(used[outside] == SERVED_BY["numeric"])
+
+
+def test_auto_records_the_method_and_matches_it():
+    gamma = np.array([1e-6, 1e-3, 0.5, 3.0])
+    out = sweep.cor_fields(1.5, 1.5, gamma, 0.01, method="auto", tol=1e-3)
+    names = {c: n for n, c in SERVED_BY.items()}
+    for i, code in enumerate(out["method_used"]):
+        assert out["e"][i] == sweep.cor(1.5, 1.5, gamma[i], 0.01, method=names[int(code)])
+    assert out["method_used"][-1] == SERVED_BY["numeric"]
+    assert sweep.cor(1.5, 1.5, 1e-6, 0.01, method="auto") == pytest.approx(1.0, abs=1e-5)
+    with pytest.raises(ValueError, match="tol must be"):
+        sweep.cor(1.5, 1.5, 0.1, 0.1, method="auto", tol=-1.0)
+
+
+def test_auto_is_registered_but_not_an_approximation():
+    m = registry.METHODS["auto"]
+    assert m.composite and "auto" not in registry.approximations()
+    assert registry.composites() == ("auto",)
+    assert registry.method_fields()["method_used"][0] == "auto"
+    cfg = config.loads('[design]\nkind = "grid"\nalpha = 1.5\nbeta = 1.5\ngamma = 0.1\n'
+                       'gtilde = 0.2\n[outputs]\ne = "all"\n')
+    assert "auto" not in cfg.outputs.methods                # "all" leaves it out
+    cfg = config.loads('[design]\nkind = "grid"\nalpha = 1.5\nbeta = 1.5\ngamma = 0.1\n'
+                       'gtilde = 0.2\n[outputs]\ne = ["auto"]\nfields = ["method_used"]\n'
+                       '[options.auto]\ntol = 1e-3\n')
+    assert cfg.outputs.composites == ("auto",) and cfg.method_options("auto") == {"tol": 1e-3}
+    with pytest.raises(config.ConfigError, match="field of method 'auto'.*'method_used'"):
+        config.loads('[design]\nkind = "grid"\nalpha = 1.5\nbeta = 1.5\ngamma = 0.1\n'
+                     'gtilde = 0.2\n[outputs]\ne = ["ord1"]\nfields = ["method_used"]\n')
+
+
+def test_integrator_tol_is_passed_through_once_it_exists(monkeypatch):
+    # When the "numeric" method gains a tol option, auto hands its tol to the integrator.
+    seen = {}
+
+    def kernel(alpha, beta, gamma, gtilde, **opts):
+        seen.update(opts)
+        return np.full(alpha.size, 0.5), np.zeros(alpha.size, dtype=np.int8)
+
+    numeric = registry.METHODS["numeric"]
+    tol_opt = registry.Option("tol", 1e-10, lambda v: v > 0, "a number > 0")
+    monkeypatch.setitem(registry.METHODS, "numeric", dataclasses.replace(
+        numeric, kernel=kernel, options=numeric.options + (tol_opt,)))
+    codes = np.full(3, SERVED_BY["numeric"], dtype=np.int8)
+    e, _ = auto.serve(*(np.full(3, x) for x in (1.5, 1.5, 0.1, 0.1)), codes, 1e-5, steps=64)
+    assert seen["tol"] == 1e-5 and seen["steps"] == 64 and np.all(e == 0.5)
+
+
+def test_error_model_file_and_codes(tmp_path):
+    model = auto.default_model()
+    assert set(model.methods) == set(registry.approximations())
+    assert model.bound.shape == (model.alpha.size, model.beta.size,
+                                 model.gamma_edges.size - 1, model.gtilde_edges.size - 1,
+                                 len(model.methods))
+    assert model.info["safety"] >= 2 and model.info["judge_steps"] >= 256
+    x = np.array([1e-12, 3e-7, 0.02, 1.0])
+    assert np.all(auto.decode(auto.encode(x)) >= x)          # codes never understate ...
+    assert np.all(auto.decode(auto.encode(x)) < 10 ** (1 / 8) * x)   # ... by 1/8 decade
+    assert auto.encode(np.inf) == auto.NO_BOUND and auto.decode(auto.NO_BOUND) == np.inf
+    model.save(tmp_path / "m.npz")
+    again = auto.ErrorModel.load(tmp_path / "m.npz")
+    assert again.methods == model.methods and np.array_equal(again.bound, model.bound)
+    # "sp" is Kuwabara-Kono only: no bound anywhere else.
+    sp = model.methods.index("sp")
+    b = model.bounds(np.array([1.5, 1.5]), np.array([1.5, 1.0]), np.full(2, 1e-3),
+                     np.full(2, 0.1))
+    assert np.isfinite(b[0, sp]) and np.isinf(b[1, sp])

@@ -1,0 +1,211 @@
+"""Scenes: physical situations in (materials, v0, F, g), scaled points and datasets out.
+
+sweep.sweeps.config (design.kind = "scene"), sweep.sweeps.design.SceneDesign,
+sweep.materials, and the scene dataset written by the runner.
+"""
+import math
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import sweep
+from sweep import materials
+from sweep.sweeps import config, design, runner
+
+STEEL = dict(m=0.154, k=3.6138e10, gamma0=1.5237e-6)   # the report's steel ball (KK)
+
+SCENE = """
+title = "scene test"
+[design]
+kind = "scene"
+g = 9.81
+v0 = {start = 0.1, stop = 5.0, num = 7, spacing = "log"}
+F = [0.0, 1.0]
+[design.materials.steel]
+law = "kk"
+m = 0.154
+k = 3.6138e10
+gamma0 = 1.5237e-6
+[design.materials.steel_x2]       # m and k doubled: same (gamma, g~) where F = 0
+alpha = 1.5
+beta = 1.5
+m = 0.308
+k = 7.2276e10
+gamma0 = 1.5237e-6
+[outputs]
+e = ["numeric", "ord1"]
+fields = ["status"]
+[integrator]
+steps = 48
+"""
+
+PROPERTIES = """
+[design]
+kind = "scene"
+v0 = 1.0
+F = 0.0
+[design.materials.glass]
+law = "kk"
+radius = 1e-3
+density = 2500.0
+E = 63e9
+nu = 0.22
+floor = {E = 63e9, nu = 0.22}
+damping = {model = "target_e", e = 0.97, v0 = 1.0}
+[outputs]
+e = ["numeric"]
+"""
+
+
+def test_scaling_of_the_steel_ball_by_hand():
+    # Eq. (2) with alpha = beta = 3/2: gamma = gamma0 v0^(1/5) (k/m)^(2/5),
+    # g~ = (m/k)^(2/5) v0^(-6/5) (g + F/m). Hand arithmetic, not sweep.scale.
+    m, k, gamma0, v0, g, F = 0.154, 3.6138e10, 1.5237e-6, 2.79, 9.8, 0.5
+    k_over_m = 3.6138e10 / 0.154                                     # 2.34662e11 s^-2 m^-1/2
+    gamma = gamma0 * v0 ** 0.2 * math.exp(0.4 * math.log(k_over_m))
+    gtilde = math.exp(-0.4 * math.log(k_over_m)) * v0 ** -1.2 * (g + F / m)
+    assert gamma == pytest.approx(0.066099, rel=1e-4)              # report: e = 0.893 here
+    got = sweep.scale(m, k, gamma0, v0, 1.5, 1.5, g=g, F=F)
+    assert got == pytest.approx((gamma, gtilde), rel=1e-14)
+    d = design.build(config.loads(SCENE).design)
+    alpha, beta, gam, gt = d.points(0, d.size)
+    v = d.axes["v0"][np.arange(d.size) // 2 % 7]
+    Fs = d.axes["F"][np.arange(d.size) % 2]
+    steel = np.arange(d.size) < 14
+    hand = gamma0 * v[steel] ** 0.2 * k_over_m ** 0.4
+    np.testing.assert_allclose(gam[steel], hand, rtol=1e-13)
+    np.testing.assert_allclose(gt[steel], k_over_m ** -0.4 * v[steel] ** -1.2
+                               * (9.81 + Fs[steel] / m), rtol=1e-13)
+
+
+def test_points_with_the_same_scaled_numbers_have_the_same_e():
+    # Doubling v0 is undone by gamma0 / 2^(1/5) and g x 2^(6/5): eq. (2) gives the same
+    # (gamma, g~), so the same e, though every physical value differs.
+    a = sweep.scale(**STEEL, v0=1.3, alpha=1.5, beta=1.5, g=9.81, F=0.0)
+    b = sweep.scale(STEEL["m"], STEEL["k"], STEEL["gamma0"] * 2 ** -0.2, 2.6, 1.5, 1.5,
+                    g=9.81 * 2 ** 1.2, F=0.0)
+    assert b == pytest.approx(a, rel=1e-14)
+    assert sweep.cor(1.5, 1.5, *b) == pytest.approx(sweep.cor(1.5, 1.5, *a), abs=1e-12)
+
+
+def test_scene_dataset_dims_units_and_invariance(tmp_path):
+    out = tmp_path / "scene.nc"
+    runner.run(config.loads(SCENE, source="scene.toml"), out, quiet=True, chunk_size=5)
+    with xr.open_dataset(out) as ds:
+        ds = ds.load()
+    assert ds.e_numeric.dims == ("material", "v0", "F")
+    assert list(ds.material.values) == ["steel", "steel_x2"]
+    assert ds.v0.attrs["units"] == "m s-1" and ds.v0.attrs["spacing"] == "log"
+    assert ds.F.attrs["units"] == "N" and ds.g.attrs["units"] == "m s-2"
+    for name in ("gamma", "gtilde"):
+        assert name in ds.data_vars and ds[name].dims == ("material", "v0", "F")
+        assert ds[name].attrs["units"] == "1"
+    assert ds.m.dims == ("material",) and ds.m.attrs["units"] == "kg"
+    np.testing.assert_array_equal(ds.m.values, [0.154, 0.308])
+    np.testing.assert_allclose(ds.gamma.values[0], ds.gamma.values[1], rtol=1e-14)
+    # F = 0: both materials have the same (gamma, g~), hence the same e.
+    np.testing.assert_allclose(ds.e_numeric.values[0, :, 0], ds.e_numeric.values[1, :, 0],
+                               atol=1e-12)
+    # The stored e is sweep.cor at the stored scaled point.
+    want = sweep.cor(1.5, 1.5, ds.gamma.values, ds.gtilde.values, steps=48)
+    np.testing.assert_array_equal(ds.e_numeric.values, want)
+    assert "scene design: 2 materials" in ds.attrs["design"]
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ("m = 0.154", "m = -0.154", "design.materials.steel.m: must be > 0 [kg], got -0.154"),
+    ("gamma0 = 1.5237e-6\n[design.materials.steel_x2]", "gamma0 = -1.0\n"
+     "[design.materials.steel_x2]", "design.materials.steel.gamma0: must be >= 0"),
+    ("start = 0.1", "start = -0.1", "design.v0.start: must be > 0 [m/s], got -0.1"),
+    ('law = "kk"', 'law = "kuwabara"', "design.materials.steel.law: must be"),
+    ("m = 0.154\n", "", "design.materials.steel.m: is required, or derive it from radius"),
+    ("g = 9.81", 'g = "earth"', "design.g: must be a finite number"),
+])
+def test_scene_errors_name_the_bad_value(old, new, message):
+    with pytest.raises(config.ConfigError, match=message.replace("(", r"\(")
+                       .replace(")", r"\)").replace("[", r"\[").replace("]", r"\]")):
+        config.loads(SCENE.replace(old, new, 1))
+
+
+def test_a_pulling_load_beyond_gravity_is_named():
+    cfg = config.loads(SCENE.replace("F = [0.0, 1.0]", "F = [-2.0, 1.0]"))
+    with pytest.raises(config.ConfigError, match=r"steel: g \+ F/m must be >= 0.*-3\.17"):
+        design.build(cfg.design)
+
+
+def test_material_properties_hertz_and_target_damping():
+    d = design.build(config.loads(PROPERTIES).design)
+    (mat,) = d.materials
+    assert mat.m == pytest.approx(4 / 3 * math.pi * 1e-9 * 2500.0, rel=1e-15)
+    e_star = 1.0 / (2 * (1 - 0.22 ** 2) / 63e9)       # two glass bodies
+    assert mat.k == pytest.approx(4 / 3 * e_star * math.sqrt(1e-3), rel=1e-15)
+    gamma, gtilde = sweep.scale(mat.m, mat.k, mat.gamma0, 1.0, 1.5, 1.5)
+    assert sweep.cor(1.5, 1.5, gamma, gtilde) == pytest.approx(0.97, abs=1e-12)
+    assert "Hertz" in mat.origin and "e = 0.97" in mat.origin
+    bad = PROPERTIES.replace("nu = 0.22\nfloor", "nu = 0.6\nfloor")
+    with pytest.raises(config.ConfigError, match=r"glass.nu: must be in \(-1, 0.5\], got 0.6"):
+        config.loads(bad)
+
+
+def test_bead_8mm_damping_gives_e_09_at_1_m_per_s():
+    gamma0 = materials.gamma0_for_cor(0.9, 1.0, 2.05e-3, 9.858e9, 1.5, 1.5, g=9.81)
+    assert gamma0 == pytest.approx(5.19995e-7, rel=1e-5)    # the value docs/scenes.md gives
+    gamma, gtilde = sweep.scale(2.05e-3, 9.858e9, gamma0, 1.0, 1.5, 1.5)
+    assert sweep.cor(1.5, 1.5, gamma, gtilde, steps=256) == pytest.approx(0.9, abs=1e-10)
+
+
+def test_tsuji_relation_is_exact_for_the_tti_law():
+    # TTI at g~ = 0: e does not depend on v0, and the closed form gives it exactly.
+    gamma0 = materials.tsuji_gamma0(0.8, 2.05e-3, 9.858e9)
+    for v0 in (0.1, 3.0):
+        gamma, _ = sweep.scale(2.05e-3, 9.858e9, gamma0, v0, 1.5, 1.25, g=0.0)
+        assert sweep.cor(1.5, 1.25, gamma, 0.0, steps=256) == pytest.approx(0.8, abs=1e-10)
+
+
+def test_kuwabara_kono_constant():
+    # Brilliantov et al. (1996): A = (3 eta2 - eta1)^2 / (3 (3 eta2 + 2 eta1))
+    # x (1 - nu^2)(1 - 2 nu) / (E nu^2); 0 when 3 eta2 = eta1.
+    a = materials.kuwabara_kono_gamma0(1.0, 2.0, 1e9, 0.25)
+    assert a == pytest.approx(25 / 24 * 0.9375 * 0.5 / (1e9 * 0.0625), rel=1e-15)
+    assert materials.kuwabara_kono_gamma0(3.0, 1.0, 1e9, 0.25) == 0.0
+    with pytest.raises(ValueError, match="E must be > 0"):
+        materials.kuwabara_kono_gamma0(1.0, 2.0, -1.0, 0.25)
+
+
+def test_bundled_scenes_are_valid():
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1] / "configs"
+    for name in ("scene_steel_ball", "scene_bead_8mm", "scene_glass"):
+        cfg = config.load(root / f"{name}.toml")
+        assert cfg.design.kind == "scene"
+        design.build(cfg.design)
+
+
+def test_scene_with_auto_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch):
+    text = SCENE.replace('e = ["numeric", "ord1"]\nfields = ["status"]',
+                         'e = ["numeric", "auto"]\nfields = ["method_used"]\n'
+                         '[options.auto]\ntol = 1e-3')
+    cfg = config.loads(text, source="scene.toml")
+    runner.run(cfg, tmp_path / "ref.nc", quiet=True, chunk_size=4)
+    real, calls = runner.compute_chunk, [0]
+
+    def interrupted(*args):
+        calls[0] += 1
+        if calls[0] == 4:                   # the first call is the warm-up
+            raise KeyboardInterrupt
+        return real(*args)
+
+    with monkeypatch.context() as m:
+        m.setattr(runner, "compute_chunk", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            runner.run(cfg, tmp_path / "out.nc", quiet=True, chunk_size=4)
+    res = runner.run(cfg, tmp_path / "out.nc", quiet=True, chunk_size=4)
+    assert res.resumed_chunks == 2
+    with xr.open_dataset(tmp_path / "ref.nc") as a, xr.open_dataset(tmp_path / "out.nc") as b:
+        for name in ("gamma", "gtilde", "e_numeric", "e_auto", "method_used"):
+            np.testing.assert_array_equal(a[name].values, b[name].values)
+        assert np.all(np.abs(b.e_auto - b.e_numeric) <= 1e-3)
+        assert b.method_used.attrs["flag_meanings"].split()[0] == "numeric"
+        assert b.attrs["options_auto_tol"] == 1e-3 and b.attrs["options_auto_steps"] == 48
