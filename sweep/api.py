@@ -20,13 +20,13 @@ from sweep import registry
 from sweep._arrays import Broadcast, broadcast_points
 from sweep.kernels import approx as _approx
 from sweep.kernels.integrator import (DEFAULT_MAX_STEPS, DEFAULT_REST_TOL, DEFAULT_STEPS,
-                                      integrate_arrays)
+                                      integrate_arrays, settings)
 from sweep.registry import Status
 
 __all__ = ["integrate", "cor", "cor_with_status", "cor_fields", "IntegrationResult", "METHODS",
            "APPROXIMATIONS", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL",
            "coefficients", "coefficients_at_zero", "first_order_coefficients",
-           "large_gtilde_coefficient", "SP_C2"]
+           "large_gtilde_coefficient", "SP_C2", "integrator_settings"]
 
 #: The report's closed-form approximations (Sections 4-5) built into the package.
 APPROXIMATIONS = registry.approximations()
@@ -51,16 +51,26 @@ IntegrationResult = dataclasses.make_dataclass(
     namespace={"__doc__": _result_doc(), "__module__": __name__})
 
 
-def _integrator_options(options: dict[str, Any]) -> dict[str, Any]:
-    """Validated integrator keywords (``steps``, ``rest_tol``, ``max_steps``), defaults filled."""
+def integrator_settings(**options: Any) -> dict[str, Any]:
+    """Validated integrator options, defaults filled in; ``steps`` stays None where ``tol``
+    chooses the resolution (given ``tol`` and no ``steps``).
+
+    Raises
+    ------
+    ValueError
+        An unknown option or a value its rule rejects (one line naming it).
+    """
+    from_tol = options.get("tol") is not None and options.get("steps") is None
     out = registry.METHODS["numeric"].check_options(options)
-    return {"steps": float(out["steps"]), "rest_tol": float(out["rest_tol"]),
-            "max_steps": int(out["max_steps"]), "refine": bool(out["refine"])}
+    if from_tol:
+        out["steps"] = None
+    return out
 
 
-def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, steps: float | None = None,
-              rest_tol: float = DEFAULT_REST_TOL, max_steps: int | None = None,
-              refine: bool = True, parallel: bool | None = None) -> IntegrationResult:
+def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | None = None,
+              steps: float | None = None, rest_tol: float = DEFAULT_REST_TOL,
+              max_steps: int | None = None, refine: bool = True,
+              parallel: bool | None = None) -> IntegrationResult:
     """Numerical coefficient of restitution by a fixed-step Runge-Kutta 5(4) march.
 
     Integrates the scaled problem (2) in the Lipschitz form (4) with the three phases of the
@@ -74,9 +84,15 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, steps: float | 
         Scaled damping [1], >= 0, eq. (2).
     gtilde : array_like
         Scaled load g~ [1], >= 0, eq. (2).
+    tol : float, optional
+        The largest abs error of e wanted (e.g. 1e-6, 1e-8, 1e-10): the resolution comes from
+        the integrator's calibrated error model (:func:`sweep.kernels.stepsize.resolution`)
+        and points whose error estimate ``e_err`` exceeds ``tol / 2`` are checked and
+        refined (``refine``). Without it: ``steps`` and a refinement target of 1e-10.
     steps : float, optional
-        Resolution: steps per half period of the stiffest linearised motion (default
-        :data:`DEFAULT_STEPS`); the error falls like ``steps**-5``.
+        Resolution for experts: steps per half period of the stiffest linearised motion
+        (default :data:`DEFAULT_STEPS`, or from ``tol``); the error falls like
+        ``steps**-5``.
     rest_tol : float, default 1e-8
         Rest criterion ``max(|u - u-bar|, |v|) < rest_tol`` (report, Sec. 3).
     max_steps : int, optional
@@ -95,10 +111,10 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, steps: float | 
     -------
     IntegrationResult
     """
-    opts = _integrator_options({"steps": steps, "rest_tol": rest_tol, "max_steps": max_steps,
-                                "refine": refine})
+    opts = integrator_settings(tol=tol, steps=steps, rest_tol=rest_tol, max_steps=max_steps,
+                               refine=refine)
     b = broadcast_points(alpha, beta, gamma, gtilde)
-    out = integrate_arrays(*b.flat, parallel=parallel, **opts)
+    out = integrate_arrays(*b.flat, settings(**opts), parallel=parallel)
     for f in registry.FIELDS.values():
         if f.derived is not None:
             out[f.name] = f.derived(out)

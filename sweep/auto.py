@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from sweep import registry
+from sweep.api import integrator_settings
 
 __all__ = ["ErrorModel", "DATA_FILE", "CODES_PER_DECADE", "NO_BOUND", "encode", "decode",
            "default_model", "select", "serve", "auto_cor"]
@@ -192,7 +193,7 @@ def _integrator_options(tol: float, options: dict[str, Any]) -> dict[str, Any]:
     given = {k: v for k, v in options.items() if k in names}
     if "tol" in names:
         given["tol"] = tol
-    return numeric.check_options(given)
+    return integrator_settings(**given)
 
 
 def serve(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: np.ndarray,

@@ -250,7 +250,10 @@ class Option:
 
     def to_attr(self, value: Any) -> Any:
         """The value as a netCDF attribute, in the type of the default (TOML's
-        ``steps = 16`` is the real 16.0); booleans as 0 / 1 (netCDF has no boolean)."""
+        ``steps = 16`` is the real 16.0); booleans as 0 / 1 (netCDF has no boolean or
+        null: an unset option is the string "default")."""
+        if value is None:
+            return "default"
         if isinstance(self.default, bool):
             return int(bool(value))
         return type(self.default)(value) if self.default is not None else value
@@ -258,6 +261,8 @@ class Option:
     def from_attr(self, value: Any) -> Any:
         """Inverse of :meth:`to_attr`."""
         value = value.item() if hasattr(value, "item") else value
+        if isinstance(value, str) and value == "default":
+            return None
         return bool(value) if isinstance(self.default, bool) else value
 
 
@@ -359,6 +364,9 @@ class Method:
 
 
 _INTEGRATOR_OPTIONS = (
+    Option("tol", None, lambda v: _is_number(v) and v > 0,
+           "a number > 0 (the largest abs error of e wanted: the resolution comes from the "
+           "integrator's calibrated error model, and points above it are refined)"),
     Option("steps", 96.0, lambda v: _is_number(v) and v >= 2,
            "a number >= 2 (steps per half period of the stiffest linearised motion)"),
     Option("rest_tol", 1e-8, lambda v: _is_number(v) and v > 0,
@@ -556,7 +564,9 @@ METHODS["auto"] = Method(
     "(the closed forms of report eqs. (22), (23), (25), (36)-(38) where their error model, "
     "sweep/data/error_model.npz, allows it; the numerical integration, eqs. (3), (4), "
     "elsewhere); method_used says which", "(3), (4), (22)-(25), (36)-(38)",
-    "sweep.auto:auto_cor", (_AUTO_TOL,) + _INTEGRATOR_OPTIONS,
+    # auto's tol is also the integrator's, where it integrates (sweep.auto).
+    "sweep.auto:auto_cor",
+    (_AUTO_TOL,) + tuple(opt for opt in _INTEGRATOR_OPTIONS if opt.name != "tol"),
     fields=(Field("method_used", np.dtype(np.int8), "method that served the point",
                   "which method of the registry computed e_auto at this point: "
                   + ", ".join(f"{code} = {name}" for name, code in SERVED_BY.items()),

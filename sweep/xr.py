@@ -62,10 +62,10 @@ def _method_attrs(method: str, options: dict) -> dict:
     m = registry.method(method)
     used = m.check_options({k: v for k, v in options.items() if k != "parallel"})
     prefix = "integrator_" if m.integrates else "option_"
-    # netCDF attributes have no boolean type: flags are stored as 0 / 1.
+    # As in sweep's files: each option in its netCDF form (Option.to_attr).
     return {"long_name": m.long_name, "units": "1", "method": method,
             "equation": m.equation, "description": m.description,
-            **{prefix + k: (int(v) if isinstance(v, bool) else v) for k, v in used.items()}}
+            **{prefix + k: m.option(k).to_attr(v) for k, v in used.items()}}
 
 
 def _apply(block: Callable, args: tuple, kwargs: dict, dtypes: list) -> Any:

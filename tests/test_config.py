@@ -105,8 +105,7 @@ n = 11
 [run]
 chunk_size = 100
 """)
-    assert cfg.integrator.kwargs() == {"steps": 16, "rest_tol": 1e-9, "max_steps": 5000,
-                                       "refine": True}
+    assert cfg.integrator.kwargs() == {"steps": 16, "rest_tol": 1e-9, "max_steps": 5000}
     assert cfg.method_options("ord2_approx") == {"n": 11}
     assert cfg.method_options("ord1") == {}
     assert cfg.chunk_size == 100

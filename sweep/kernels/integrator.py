@@ -39,10 +39,11 @@ from sweep.kernels.contact import in_domain, make_law
 from sweep.kernels.march import march, scratch
 from sweep.kernels.outcome import ROUNDING, decide
 from sweep.kernels.regimes import deep_well, linear_overdamped, undamped
-from sweep.kernels.stepsize import policy
+from sweep.kernels.stepsize import policy, resolution
 from sweep.registry import METHODS, Status, kernel_fields
 
-__all__ = ["integrate_arrays", "solve_point", "numeric_cor", "Settings", "DEFAULT_STEPS",
+__all__ = ["integrate_arrays", "solve_point", "numeric_cor", "Settings", "settings",
+           "DEFAULT_STEPS",
            "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL", "REFINE_TARGET", "MAX_REFINEMENT"]
 
 _OPTIONS = {opt.name: opt.default for opt in METHODS["numeric"].options}
@@ -56,6 +57,8 @@ DEFAULT_REST_TOL = _OPTIONS["rest_tol"]
 REFINE_TARGET = 1e-10
 #: Largest refinement of the resolution, in all.
 MAX_REFINEMENT = 8.0
+#: With a tolerance, points whose error estimate exceeds tol / TOL_MARGIN are refined.
+TOL_MARGIN = 2.0
 
 _OK = int(Status.OK)
 _BUDGET = int(Status.BUDGET_EXHAUSTED)
@@ -65,10 +68,23 @@ _INVALID = int(Status.INVALID)
 class Settings(NamedTuple):
     """Integrator settings shared by every point of a call."""
 
-    steps: float        # resolution (steps per half period)
+    steps: float        # resolution (steps per half period); 0: from tol's error model
     rest_tol: float     # the report's rest criterion
-    max_steps: int      # budget per march
+    max_steps: int      # budget per point, every march included
     target: float       # refinement target on e_err (0: never refine)
+
+
+def settings(steps=None, rest_tol=DEFAULT_REST_TOL, max_steps=DEFAULT_MAX_STEPS, refine=True,
+             tol=None):
+    """The :class:`Settings` of validated options: with ``tol`` and no ``steps`` the
+    resolution comes from the error model (:func:`sweep.kernels.stepsize.resolution`) and
+    points whose error estimate exceeds ``tol / TOL_MARGIN`` are refined; without ``tol``,
+    ``steps`` (default :data:`DEFAULT_STEPS`) and :data:`REFINE_TARGET`."""
+    target = REFINE_TARGET if tol is None else tol / TOL_MARGIN
+    if steps is None:
+        steps = DEFAULT_STEPS if tol is None else resolution(tol)
+    return Settings(float(steps), float(rest_tol), int(max_steps),
+                    float(target) if refine else 0.0)
 
 
 @jit(inline="always")
@@ -183,8 +199,7 @@ def _kernel_serial(order, alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps,
                status, e_err)
 
 
-def integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, refine=True,
-                     parallel=None):
+def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None):
     """Run the integrator over flat float64 arrays.
 
     Returns
@@ -192,8 +207,8 @@ def integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, ref
     dict of str -> ndarray
         One flat array per field of :func:`sweep.registry.kernel_fields`, in its dtype.
 
-    ``parallel=None`` picks the parallel kernel when :func:`parallel_allowed`; ``refine``
-    checks and refines points whose error indicator exceeds :data:`REFINE_TARGET`.
+    ``s`` is the :class:`Settings` (:func:`settings`); ``parallel=None`` picks the parallel
+    kernel when :func:`parallel_allowed`.
     """
     n = alpha.size
     out = {f.name: np.empty(n, dtype=f.dtype) for f in kernel_fields()}
@@ -206,16 +221,13 @@ def integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, ref
     else:
         order = np.arange(n)
         kernel = _kernel_serial
-    s = Settings(float(steps), float(rest_tol), int(max_steps), REFINE_TARGET if refine else 0.0)
     kernel(order, alpha, beta, gamma, gtilde, s, out["e"], out["t_f"], out["u_max"],
            out["n_steps"], out["status"], out["e_err"])
     return out
 
 
-def numeric_cor(alpha, beta, gamma, gtilde, steps=DEFAULT_STEPS, rest_tol=DEFAULT_REST_TOL,
-                max_steps=DEFAULT_MAX_STEPS, refine=True, parallel=None):
+def numeric_cor(alpha, beta, gamma, gtilde, parallel=None, **options):
     """The ``"numeric"`` method's kernel (:data:`sweep.registry.METHODS`): ``(e, status)``
-    over flat float64 arrays of equal length."""
-    out = integrate_arrays(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, refine,
-                           parallel)
+    over flat float64 arrays of equal length; ``options`` as for :func:`settings`."""
+    out = integrate_arrays(alpha, beta, gamma, gtilde, settings(**options), parallel)
     return out["e"], out["status"]

@@ -44,7 +44,7 @@ from sweep.kernels.contact import damping_rate, elastic_frequency, umax_undamped
 
 __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "MAX_DEPTH_FACTOR", "base_step",
            "damping_limited", "damping_step", "grading", "needs_grading", "graded_step",
-           "StepPolicy", "policy", "first_guess"]
+           "StepPolicy", "policy", "first_guess", "resolution", "ERROR_AT_GRADE_STEPS"]
 
 #: Ratio of step to distance from u = 0 inside the graded zone, at ``GRADE_STEPS``.
 GRADE_RATIO = 0.25
@@ -110,6 +110,23 @@ def graded_step(u, v, h, rho, s_min):
         return h
     s = rho * u / av
     return s if s > s_min else s_min
+
+
+#: Error model of the resolution: the largest abs error of e over points away from the
+#: stick/rebound boundary (where refinement takes over) is ``ERROR_AT_GRADE_STEPS`` at
+#: ``GRADE_STEPS`` and falls like ``steps^-5`` (measured on the core benchmark's draws:
+#: KK, SHC, TTI, Hertz and general exponents; benchmarks/error_model.py).
+ERROR_AT_GRADE_STEPS = 5e-11
+#: Resolutions the error model may choose.
+MIN_STEPS = 8.0
+MAX_STEPS = 1024.0
+
+
+@jit(inline="always")
+def resolution(tol):
+    """Steps per half period for a largest abs error ``tol`` of e (error model above)."""
+    steps = GRADE_STEPS * (ERROR_AT_GRADE_STEPS / tol) ** 0.2
+    return min(max(steps, MIN_STEPS), MAX_STEPS)
 
 
 class StepPolicy(NamedTuple):

@@ -697,14 +697,15 @@ class IntegratorSettings:
     given: tuple = ()
 
     def kwargs(self):
-        """Keyword arguments of ``sweep.api.integrate``, defaults filled in."""
-        return registry.METHODS["numeric"].check_options(dict(self.given))
+        """Keyword arguments of ``sweep.api.integrate``: the options the file gives (the
+        api fills in the defaults, and with ``tol`` alone chooses the resolution)."""
+        return dict(self.given)
 
     def __getattr__(self, name):
         if name.startswith("_"):
             raise AttributeError(name)
         try:
-            return self.kwargs()[name]
+            return registry.METHODS["numeric"].check_options(self.kwargs())[name]
         except KeyError:
             raise AttributeError(name) from None
 

@@ -289,7 +289,7 @@ def _integrator_attrs(plan):
     # Every option of the "numeric" method, defaults resolved.
     return {"integrator": "fixed-step Dormand-Prince 5(4), three phases of Algorithm 1",
             **{f"integrator_{key}": registry.METHODS["numeric"].option(key).to_attr(value)
-               for key, value in plan.integrator.items()}}
+               for key, value in api.integrator_settings(**plan.integrator).items()}}
 
 
 def _static_attrs(cfg, design, plan, chunk_size):
