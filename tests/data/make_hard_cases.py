@@ -5,6 +5,7 @@ argument where one exists. Run from the repository root (about a minute on 2 cor
 
     nice python tests/data/make_hard_cases.py            # writes tests/data/hard_cases.csv
     nice python tests/data/make_hard_cases.py --mp 40    # re-solve 40 rebounds in mpmath
+    nice python tests/data/make_hard_cases.py --dop853   # grazing rows against DOP853
 
 Sets (column ``set``)
 ---------------------
@@ -186,15 +187,38 @@ def _mp_check(job):
     return (a, b, g, G), e_ld, r["e"] if r["status"] == R.OK else 0.0, R.STATUS_NAMES[r["status"]], status
 
 
+def dop853_check(path, set_name="grazing"):
+    """Decisions and e of one set against tests/reference.py's DOP853 (independent logic:
+    adaptive steps, events on its dense output); prints mismatches and the max |de| per g~."""
+    from reference import dop853_cor
+    with open(path, newline="") as fh:
+        rows = [r for r in csv.DictReader(fh) if r["set"] == set_name]
+    mism, worst = 0, {}
+    for r in rows:
+        p = tuple(float(r[k]) for k in ("alpha", "beta", "gamma", "gtilde"))
+        d = dop853_cor(*p)
+        if d.sticks != (r["sticks_ref"] == "True"):
+            mism += 1
+            print("decision differs", p, r["e_ref"], d.e)
+        else:
+            worst[p[3]] = max(worst.get(p[3], 0.0), abs(d.e - float(r["e_ref"])))
+    print(f"DOP853 on {set_name}: {len(rows)} rows, {mism} decision mismatches; max |de| by g~: "
+          + ", ".join(f"{G:g}: {v:.1e}" for G, v in sorted(worst.items())))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default=os.path.join(HERE, "hard_cases.csv"))
     ap.add_argument("--mp", type=int, default=0,
                     help="instead of generating, re-solve this many rows of --out in mpmath")
+    ap.add_argument("--dop853", action="store_true",
+                    help="instead of generating, check the grazing rows of --out against DOP853")
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args(argv)
     if args.mp:
         return mp_check(args.out, args.mp, args.workers)
+    if args.dop853:
+        return dop853_check(args.out)
     t0 = time.time()
     with mp.Pool(args.workers) as pool:
         graze, info = grazing_points(pool)
