@@ -146,9 +146,11 @@ def cor_fields(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "nu
     if m.integrates:
         r = integrate(alpha, beta, gamma, gtilde, **options)
         return {f.name: getattr(r, f.name) for f in dataclasses.fields(r)}
-    options = m.check_options(options)
+    # Validate every option, but pass the kernel only those given: it knows its defaults,
+    # and a composite method (auto) must tell a given resolution from the default one.
+    checked = m.check_options(options)
     b = broadcast_points(alpha, beta, gamma, gtilde)
-    e, status, *extra = m.resolve()(*b.flat, **options)
+    e, status, *extra = m.resolve()(*b.flat, **{k: checked[k] for k in options})
     undefined = ~m.defined_at(b.flat[0], b.flat[1])
     if undefined.any():
         if b.scalar:

@@ -38,14 +38,16 @@ from typing import NamedTuple
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import (accel, damping_ratio, dissipated, equilibrium, make_law, rhs,
-                                   ppow, velocity)
+from sweep.kernels.contact import (accel, damping_ratio, dissipated, equilibrium, make_law,
+                                   potential, ppow, rhs, velocity)
+from sweep.kernels.creep import (ROUNDING_V, creep_constants, energy_margin, jump,
+                                 near_slow_branch, never_leaves)
 from sweep.kernels.events import ON_U, ON_V, locate
 from sweep.kernels.stepper import N_DENSE, N_STAGES, dense_coefficients, local_error, rk_step
-from sweep.kernels.stepsize import damping_step, first_guess, policy
+from sweep.kernels.stepsize import damping_step, first_guess, local_policy, policy
 
 __all__ = ["Ending", "march", "march_point", "EXIT", "TROUGH", "SPENT", "REST", "BUDGET",
-           "scratch"]
+           "CREEP", "NEGLIGIBLE", "scratch"]
 
 # Relative roundoff in the dissipated energy q (a sum of positive terms): the energy rule
 # waits until q exceeds the initial energy 1/2 by more than it.
@@ -160,10 +162,18 @@ def _advance(u, w, v, p, K, c, n, max_steps):
 # --------------------------------------------------------------------------- phases
 
 @jit(inline="always")
-def _may_have_event(phase, u1, v1, ubar):
-    """An event of Algorithm 1 may lie inside the step that ended at (u1, v1)."""
+def _compressed(v, w):
+    """Phase 1 is over: v <= 0, or v at the rounding level of ``v = w - gamma u^beta``
+    (under heavy damping the bead stops on the damper, with v ~ 1e-17 formed as a
+    difference of numbers ~1: its sign is noise, and the maximum is reached)."""
+    return v <= ROUNDING_V * abs(w)
+
+
+@jit(inline="always")
+def _may_have_event(phase, u1, v1, w1, ubar):
+    """An event of Algorithm 1 may lie inside the step that ended at (u1, v1, w1)."""
     if phase == 1:
-        return v1 <= 0.0
+        return _compressed(v1, w1)
     if phase == 2:
         return u1 < ubar or (ubar == 0.0 and u1 <= 0.0)
     return u1 <= 0.0 or v1 >= 0.0
@@ -211,7 +221,7 @@ def _cannot_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
 
 
 #: How a march ended (the geometry); :func:`sweep.kernels.outcome.decide` reads it.
-EXIT, TROUGH, SPENT, REST, BUDGET = range(5)
+EXIT, TROUGH, SPENT, REST, BUDGET, CREEP, NEGLIGIBLE = range(7)
 
 
 class Ending(NamedTuple):
@@ -219,8 +229,10 @@ class Ending(NamedTuple):
 
     ``kind``: EXIT (u = 0 reached), TROUGH (v = 0 with u > 0 after the swing), SPENT (the
     dissipated energy exceeded the initial 1/2), REST (rest criterion), BUDGET (step
-    budget). ``t``, ``u``, ``v``, ``q``: time, position, velocity and dissipated energy
-    there; ``u_max``: maximum compression (NaN if not reached); ``n``: steps taken;
+    budget), CREEP (certified never to leave, :func:`sweep.kernels.creep.never_leaves`),
+    NEGLIGIBLE (the energy left bounds e below the tolerance). ``t``, ``u``, ``v``: time,
+    position and velocity there; ``h``: the energy left, ``H = 1/2 - q`` with q the energy
+    the damper dissipated (after a creep jump: H at the jump minus q since); ``u_max``: maximum compression (NaN if not reached); ``n``: steps taken;
     ``lw``, ``lq``: sums of the embedded local error estimates of w and of the dissipation
     integral over the steps (:func:`sweep.kernels.stepper.local_error`), indicators of the
     global error (:mod:`sweep.kernels.outcome`).
@@ -230,22 +242,64 @@ class Ending(NamedTuple):
     t: float
     u: float
     v: float
-    q: float
+    h: float
     u_max: float
     n: int
     lw: float
     lq: float
 
 
+@jit(inline="always")
+def _creep_rule(c, k, u, w, r, v, e0, e_tol, phase):
+    """Heavy damping, in phases 2 and 3 inside ``R = {v + w >= 0}`` (docs/creep.md,
+    section 7): the Ending kind it decides (CREEP, NEGLIGIBLE, SPENT), BUDGET if the state
+    should jump along the slow branch, or -1. ``e0``: the energy when q was last zero."""
+    # Two estimates of the energy: 1/2 - q, whose integral carries the march's error of
+    # the stop (~1e-9 at gamma = 1e10, where H ~ -1e-10 matters), and the state's own
+    # v^2/2 + F(u), exact up to rounding for a bead the damper holds (inside R).
+    h = min(e0 - dissipated(u, v, r, c), 0.5 * v * v + potential(u, c)) \
+        + energy_margin(u, v, c)
+    if h < 0.0:
+        return SPENT
+    if never_leaves(c, k, u, w, v, h):
+        return CREEP
+    if 2.0 * h <= e_tol * e_tol:
+        return NEGLIGIBLE
+    if phase > 1 and near_slow_branch(c, k, u, w, v):   # the branch down to the floor
+        return BUDGET
+    return -1
+
+
+@jit(inline="always")
+def _overdamped_here(u, c):
+    """The local damping rate exceeds twice the local elastic frequency (zeta(u) >= 1)."""
+    return c.gamma * c.beta * u ** (c.beta - 1.0) >= 2.0 * math.sqrt(c.alpha * u ** (c.alpha - 1.0))
+
+
+@jit(inline="always")
+def _jumped(c, k, u, t, K):
+    """State after the jump along the slow branch: ``(u, w, r, v, t, e0)`` with K[0] = f
+    there. The energy left there, ``e0 = H``, is far below 1/2's rounding (e.g. 1e-17), so
+    the dissipation restarts from 0 (``q = gamma v u^beta + r = 0``) and ``H = e0 - q``."""
+    u, w, v, dt = jump(c, k, u)
+    r = -c.gamma * v * ppow(u, c.beta, c.kb)
+    fu, fw, fr = rhs(u, w, c)
+    _set_first_stage(K, fu, fw, fr)
+    return u, w, r, v, t + dt, 0.5 * v * v + potential(u, c)
+
+
 @jit()
-def march(c, p, rest_tol, max_steps, K, K2, Q):
+def march(c, p, rest_tol, max_steps, K, K2, Q, e_tol=0.0):
     """The three phases of Algorithm 1 for the law ``c`` with the step policy ``p``: the
-    geometry of the impact, up to its :class:`Ending`."""
+    geometry of the impact, up to its :class:`Ending`. ``e_tol``: energy below which a
+    heavily damped bead's possible rebound is negligible (NEGLIGIBLE)."""
     ubar = equilibrium(c.alpha, c.gtilde)
+    k = creep_constants(c)
     energy_in_phase1 = c.gtilde > 0.0 and damping_ratio(c.alpha, c.beta, c.gamma, c.gtilde) >= 1.0
     q_stuck = 0.5 * (1.0 + _ENERGY_ROUNDOFF)
     t = u = r = rc = 0.0
     w = v = 1.0
+    e0 = 0.5
     fu, fw, fr = rhs(u, w, c)
     _set_first_stage(K, fu, fw, fr)
     phase = 1
@@ -254,7 +308,7 @@ def march(c, p, rest_tol, max_steps, K, K2, Q):
     lw = lq = 0.0
     while True:
         if n >= max_steps:
-            return Ending(BUDGET, t, u, v, dissipated(u, v, r, c), u_max, n, lw, lq)
+            return Ending(BUDGET, t, u, v, e0 - dissipated(u, v, r, c), u_max, n, lw, lq)
         u1, w1, dr, s, n = _advance(u, w, v, p, K, c, n, max_steps)
         # Compensated (Kahan) sum: q's rounding stays at eps instead of growing with the
         # number of steps, which matters where e = sqrt(1 - 2 q) is small.
@@ -266,10 +320,10 @@ def march(c, p, rest_tol, max_steps, K, K2, Q):
         _, ew, eq = local_error(K, s)
         lw += abs(ew)
         lq += abs(eq)
-        if _may_have_event(phase, u1, v1, ubar):
+        if _may_have_event(phase, u1, v1, w1, ubar):
             dense_coefficients(K, s, Q)
             th0 = 0.0
-            if phase == 1 and v1 <= 0.0:
+            if phase == 1 and _compressed(v1, w1):
                 th0, u_max = _compression_end(u, w, r, s, Q, K, K2, c)
                 n += 1
                 phase = 2
@@ -283,11 +337,11 @@ def march(c, p, rest_tol, max_steps, K, K2, Q):
                 th_exit, u_min, q_min = _trough(u, w, r, s, th0, Q, K, K2, c)
                 n += 1
                 if u_min > 0.0:
-                    return Ending(TROUGH, t + th_exit * s, u_min, 0.0, q_min, u_max, n, lw, lq)
+                    return Ending(TROUGH, t + th_exit * s, u_min, 0.0, e0 - q_min, u_max, n, lw, lq)
                 exiting = True
             if exiting:
                 d, q_f, v_f, used = _detach(u, w, r, s, th0, th_exit, Q, K, K2, c)
-                return Ending(EXIT, t + d, 0.0, v_f, q_f, u_max, n + used, lw, lq)
+                return Ending(EXIT, t + d, 0.0, v_f, e0 - q_f, u_max, n + used, lw, lq)
         t += s
         u = u1
         w = w1
@@ -295,19 +349,35 @@ def march(c, p, rest_tol, max_steps, K, K2, Q):
         rc = rc_next
         v = v1
         _set_first_stage(K, K[N_STAGES - 1, 0], K[N_STAGES - 1, 1], K[N_STAGES - 1, 2])
-        if _at_rest(u, v, ubar, rest_tol):
+        # The creep rules apply inside R (v >= -gamma u^beta / 2), which phase 1 always is:
+        # there only under heavy damping, where the bead may creep into a well for ever.
+        if (phase > 1 or p.capped) and v + w >= 0.0:
+            if phase > 1 and _overdamped_here(u, c):
+                # Creeping back: steps follow the local time scales, which grow as u
+                # falls (docs/creep.md, section 7).
+                p = local_policy(p)
+            kind = _creep_rule(c, k, u, w, r, v, e0, e_tol, phase)
+            if kind == BUDGET:
+                u, w, r, v, t, e0 = _jumped(c, k, u, t, K)
+                rc = 0.0
+                q_stuck = e0 * (1.0 + _ENERGY_ROUNDOFF)
+            elif kind >= 0:
+                return Ending(kind, t, u, v, e0 - dissipated(u, v, r, c), u_max, n, lw, lq)
+        # At g~ = 0 the rest box is no proof of rest (a bead in it may still leave with
+        # e up to its energy, ~1e-8): the creep rules decide there.
+        if c.gtilde > 0.0 and _at_rest(u, v, ubar, rest_tol):
             if phase == 1:
                 u_max = max(u, ubar)
-            return Ending(REST, t, u, v, dissipated(u, v, r, c), u_max, n, lw, lq)
+            return Ending(REST, t, u, v, e0 - dissipated(u, v, r, c), u_max, n, lw, lq)
         if _cannot_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
-            return Ending(SPENT, t, u, v, dissipated(u, v, r, c), u_max, n, lw, lq)
+            return Ending(SPENT, t, u, v, e0 - dissipated(u, v, r, c), u_max, n, lw, lq)
 
 
 @jit()
-def march_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps):
+def march_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, e_tol=0.0):
     """The :class:`Ending` of one point's march (for diagnostics and tests)."""
     K, K2, Q = scratch()
     c = make_law(alpha, beta, gamma, gtilde)
-    return march(c, policy(c, steps), rest_tol, max_steps, K, K2, Q)
+    return march(c, policy(c, steps), rest_tol, max_steps, K, K2, Q, e_tol)
 
 

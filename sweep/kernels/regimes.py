@@ -9,6 +9,10 @@ integrator.
   half the undamped contact time).
 * :func:`linear_overdamped` -- alpha = beta = 1, g~ = 0, gamma >= 2: the closed form of
   SPEC section 4 creeps back exponentially and never leaves (``t_f = inf``).
+* :func:`creeps_from_start` -- heavy damping certified at tau = 0 never to leave
+  (:func:`sweep.kernels.creep.never_leaves_from_start`; docs/creep.md, section 3): e = 0
+  exactly, ``t_f = inf`` (the bead creeps for ever), ``u_max`` not computed (NaN); it
+  includes the linear law's overdamped creep at any load.
 * :func:`deep_well` -- very large loads. With ``u = u-bar y`` and ``tau = T s``,
   ``T = g~^((1-alpha)/(2 alpha))``, the problem becomes ``y'' + gamma' d(y^beta)/ds + y^alpha
   = 1`` with ``gamma' = gamma g~^((2 beta - alpha - 1)/(2 alpha))`` and the initial speed
@@ -31,11 +35,12 @@ import math
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import umax_undamped
+from sweep.kernels.creep import creep_constants, never_leaves_from_start
 from sweep.kernels.special import beta_fn, iq_quadrature, large_gtilde_constants
 from sweep.registry import Status
 
-__all__ = ["undamped", "linear_overdamped", "deep_well", "undamped_duration",
-           "DEEP_WELL_EPS2"]
+__all__ = ["undamped", "linear_overdamped", "creeps_from_start", "deep_well",
+           "undamped_duration", "DEEP_WELL_EPS2"]
 
 #: eps^2 = g~^(-(alpha+1)/alpha) below which :func:`deep_well` decides a point: there the
 #: law's error (~eps^2 in e^2) is below 1e-14, while the march's resolution of the rim energy
@@ -93,6 +98,14 @@ def linear_overdamped(c):
     t = math.log(l2 / l1) / (l1 - l2)
     u_max = (math.exp(l1 * t) - math.exp(l2 * t)) / (l1 - l2)
     return True, 0.0, math.inf, u_max, _AT_REST, 0.0
+
+
+@jit()
+def creeps_from_start(c):
+    """Heavy damping certified at tau = 0 never to leave (module docstring)."""
+    if not never_leaves_from_start(c, creep_constants(c)):
+        return _none()
+    return True, 0.0, math.inf, _NAN, _AT_REST, 0.0
 
 
 @jit()

@@ -44,7 +44,8 @@ from sweep.kernels.contact import damping_rate, elastic_frequency, umax_undamped
 
 __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "MAX_DEPTH_FACTOR", "base_step",
            "damping_limited", "damping_step", "grading", "needs_grading", "graded_step",
-           "StepPolicy", "policy", "first_guess", "resolution", "ERROR_AT_GRADE_STEPS"]
+           "StepPolicy", "policy", "local_policy", "first_guess", "resolution",
+           "ERROR_AT_GRADE_STEPS"]
 
 #: Ratio of step to distance from u = 0 inside the graded zone, at ``GRADE_STEPS``.
 GRADE_RATIO = 0.25
@@ -138,6 +139,8 @@ class StepPolicy(NamedTuple):
     steps: float      # resolution, for the damping cap
     graded: bool      # an exponent is not an integer: grade near u = 0
     capped: bool      # the damping cap can bind
+    local: bool       # the base step follows the local elastic frequency (creep)
+    omega: float      # the elastic frequency the base step h was set for (at u_M)
 
 
 @jit(inline="always")
@@ -145,17 +148,54 @@ def policy(c, steps):
     """The :class:`StepPolicy` of the point with contact law ``c`` at resolution ``steps``."""
     h = base_step(c.alpha, c.gtilde, steps)
     rho, first = grading(steps)
+    omega = elastic_frequency(c.alpha, umax_undamped(c.alpha, c.gtilde))
     return StepPolicy(h, rho, first * h, steps, needs_grading(c.alpha, c.beta),
-                      damping_limited(c.alpha, c.beta, c.gamma, c.gtilde))
+                      damping_limited(c.alpha, c.beta, c.gamma, c.gtilde), False, omega)
+
+
+@jit(inline="always")
+def local_policy(p):
+    """``p`` with a base step that follows the local elastic frequency
+    ``sqrt(alpha u^(alpha-1))`` instead of the one at u_M, and the damping cap on: for a
+    creeping bead (:mod:`sweep.kernels.march`), whose time scale ``u^((1-alpha)/2)`` grows
+    as u falls (below a creep jump it can be thousands of times the impact's; docs/creep.md,
+    section 7). The smallest graded step follows the same scale."""
+    if p.local:
+        return p
+    return StepPolicy(p.h, p.rho, p.s_min, p.steps, p.graded, True, True, p.omega)
+
+
+@jit(inline="always")
+def _base(u, p, c):
+    """Base step and smallest graded step at compression u."""
+    if not p.local:
+        return p.h, p.s_min
+    scale = p.omega / elastic_frequency(c.alpha, max(u, 1e-300))
+    return p.h * scale, p.s_min * scale
+
+
+@jit(inline="always")
+def _capped_step(u, v, s, p, c):
+    """The largest step up to s within the damping cap judged where the step may take the
+    bead (speed and load push it deeper): the fixed point of ``s = cap(u(s))``, approached
+    by geometric means (the cap falls as s grows)."""
+    for _ in range(4):
+        cap = damping_step(u + s * max(v, 0.0) + 0.5 * s * s * c.gtilde, c.beta, c.gamma,
+                           p.steps)
+        if cap >= s:
+            return s
+        s = math.sqrt(s * cap)
+    return min(s, damping_step(u + s * max(v, 0.0) + 0.5 * s * s * c.gtilde, c.beta,
+                               c.gamma, p.steps))
 
 
 @jit(inline="always")
 def first_guess(u, v, p, c):
     """Step from state (u, v) before the damping cap is judged at the step's end."""
-    s = graded_step(u, v, p.h, p.rho, p.s_min) if p.graded else p.h
+    h, s_min = _base(u, p, c)
+    # A local policy is always graded: its base step grows without bound as u falls (for
+    # alpha > 1), and the creep's own time scale u / |v| then bounds it.
+    s = graded_step(u, v, h, p.rho, s_min) if (p.graded or p.local) else h
     if p.capped:
-        # Judge the cap where the step may take the bead (speed and load push it deeper).
-        for _ in range(3):
-            s = min(s, damping_step(u + s * max(v, 0.0) + 0.5 * s * s * c.gtilde, c.beta,
-                                    c.gamma, p.steps))
+        s = _capped_step(u, v, min(s, damping_step(u, c.beta, c.gamma, p.steps)), p, c)
     return s
