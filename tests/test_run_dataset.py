@@ -232,3 +232,14 @@ def test_import_sweep_stays_light():
             "assert sweep.run is run and 'run' in dir(sweep)\n")
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert res.returncode == 0, res.stderr
+
+
+def test_in_memory_on_a_dask_cluster_gives_the_local_dataset():
+    distributed = pytest.importorskip("distributed")
+    local = sweep.run(DOE, quiet=True, chunk_size=3)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        remote = sweep.run(DOE, quiet=True, chunk_size=3, scheduler=cluster.scheduler_address)
+        address = cluster.scheduler_address
+    assert remote.attrs["sweep_command"].endswith(f"scheduler={address!r})")
+    xr.testing.assert_identical(_stable(remote), _stable(local))   # chunks in any order
