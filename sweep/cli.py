@@ -2,9 +2,10 @@
 
 ::
 
-    sweep run CONFIG [-o OUT.nc] [--resume | --restart] [--quiet] [--chunk-size N]
-              [--scheduler ADDR [--scheduler-timeout S]] [--max-points N] [--max-size SIZE]
-              [--force] [--debug]
+    sweep --version
+    sweep run CONFIG [-o OUT.nc] [--resume | --restart] [--quiet] [--progress-interval S]
+              [--chunk-size N] [--scheduler ADDR [--scheduler-timeout S]] [--max-points N]
+              [--max-size SIZE] [--force] [--debug]
     sweep info OUT.nc
     sweep validate CONFIG [-o OUT.nc] [--chunk-size N] [--max-points N] [--max-size SIZE]
               [--force] [--no-estimate]
@@ -21,6 +22,7 @@ output locked by another run, unreadable dataset, a file system or scheduler fau
 arguments; 130 interrupted (the finished chunks are kept; rerun the same command to
 resume). Every error is one line on stderr naming the file, value or address and the
 cause; ``--debug`` (before or after the subcommand) shows the traceback instead.
+``python -m sweep`` is the same command (:mod:`sweep.__main__`).
 
 This module owns every subcommand and all of argparse: each subparser sets ``func``, the
 handler that runs it and returns the exit status. Floor 6 (the top): it may import any
@@ -33,6 +35,8 @@ import argparse
 import signal
 import sys
 from pathlib import Path
+
+from sweep._version import __version__
 
 __all__ = ["main", "build_parser", "add_report_commands"]
 
@@ -127,7 +131,11 @@ def _add_run_command(sub):
     mode.add_argument("--restart", dest="restart", action="store_true",
                       help="discard saved chunks and an existing output, start afresh")
     p.add_argument("-q", "--quiet", action="store_true",
-                   help="no progress bar and no messages")
+                   help="no progress bar, no progress lines and no messages")
+    p.add_argument("--progress-interval", type=_positive_float, metavar="S", default=None,
+                   help="when stderr is not a terminal (batch jobs, CI logs), print a "
+                        "progress line every S seconds (default "
+                        f"{limits.PROGRESS_INTERVAL_S:g}); on a terminal a bar is drawn")
     _add_limit_options(p)
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="Dask scheduler address (tcp://host:port): run the chunks on that "
@@ -143,14 +151,14 @@ def _add_info_and_validate_commands(sub):
     p = sub.add_parser("info", help="describe an output dataset",
                        description="Print the dimensions, variables with summary "
                                    "statistics, and settings of a sweep output.")
-    p.add_argument("path", metavar="OUT.nc")
+    p.add_argument("path", metavar="OUT.nc", help="netCDF file written by `sweep run`")
     _add_debug(p)
     p.set_defaults(func=_cmd_info)
     p = sub.add_parser("validate", help="check a configuration without running it",
                        description="Check CONFIG and print what running it costs: points, "
                                    "chunks, output size, free disk needed, estimated time. "
                                    "Exit status 1 if `sweep run` would refuse it.")
-    p.add_argument("config", metavar="CONFIG")
+    p.add_argument("config", metavar="CONFIG", help="TOML configuration file")
     p.add_argument("-o", "--output", metavar="OUT.nc",
                    help="the output `sweep run` would write (default: CONFIG's name with .nc)")
     _add_limit_options(p)
@@ -161,6 +169,7 @@ def _add_info_and_validate_commands(sub):
 
 
 def _cmd_validate(args):
+    from sweep import _format
     from sweep.sweeps import config, design, preflight, runner
 
     cfg = config.load(args.config)
@@ -178,7 +187,7 @@ def _cmd_validate(args):
     if not args.no_estimate:
         rate, source = runner.estimate_rate(cfg, args.output)
         print(f"  estimated time: {preflight.format_duration(pre.n_points / rate)} at "
-              f"{rate:,.0f} points/s ({source})")
+              f"{_format.rate(rate)} ({source})")
     refusal = pre.refusal(_limits(args)) or pre.disk_refusal()
     if refusal is not None and not args.force:
         print(f"sweep validate: error: `sweep run` would refuse {args.config}: {refusal}",
@@ -207,7 +216,8 @@ def _cmd_run(args):
 
     runner.run(args.config, args.output, restart=args.restart, quiet=args.quiet,
                chunk_size=args.chunk_size, scheduler=args.scheduler, force=args.force,
-               limits=_limits(args), scheduler_timeout=args.scheduler_timeout)
+               limits=_limits(args), scheduler_timeout=args.scheduler_timeout,
+               progress_interval=args.progress_interval)
     return 0
 
 
@@ -238,7 +248,9 @@ def _cmd_paper(args):
     res = paper_report(args.out, n_gamma=args.n_gamma, n_crit=args.n_crit, steps=args.steps,
                        models=args.models, progress=not args.quiet)
     print(res["markdown"])
-    return _print_files(res, f"files in {res['out']}:")
+    _print_files(res, f"files in {res['out']}:")
+    print(res["summary"])  # last, where a reader of the terminal looks first
+    return 0
 
 
 def _cmd_speed(args):
@@ -302,7 +314,8 @@ def _add_speed_command(sub, models):
                    help="points on which the reference is cross-checked with DOP853")
     p.add_argument("--model", choices=models, default="kk",
                    help="contact model of the point set (default kk)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the random point set (default 0)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     p.set_defaults(func=_cmd_speed)
 
@@ -356,7 +369,8 @@ def add_report_commands(subparsers: argparse._SubParsersAction) -> argparse.Argu
         "report", help="accuracy maps, the report's tables and figures, speed against error",
         description="Reports built from a sweep dataset, from the report's own test cases, "
                     "or from a timing run. Figures are PNG, tables CSV and markdown.")
-    sub = rep.add_subparsers(dest="report", required=True, metavar="REPORT")
+    sub = rep.add_subparsers(dest="report", required=True, metavar="REPORT",
+                             help="the report to build")
     _add_accuracy_command(sub)
     _add_paper_command(sub, list(PAPER_MODELS))
     _add_speed_command(sub, list(PAPER_MODELS))
@@ -367,7 +381,7 @@ def add_report_commands(subparsers: argparse._SubParsersAction) -> argparse.Argu
 # --------------------------------------------------------------------------- export, example
 
 def _cmd_export(args):
-    from sweep import tables
+    from sweep import _format, tables
 
     fmt = "csv" if args.csv else "npz"
     out = args.output or str(Path(args.dataset).with_suffix("." + fmt))
@@ -376,9 +390,9 @@ def _cmd_export(args):
         print(f"wrote {path}")
         if not args.no_check:
             err = tables.Table(args.dataset, args.variable).error()
-            w = err["where"]
+            w, held = err["where"], _format.count(err["n_points"], "held-back point")
             print(f"lookup ({err['variable']}, monotone PCHIP): interpolation error against "
-                  f"direct computation on {err['n_points']} held-back points: max "
+                  f"direct computation on {held}: max "
                   f"{err['max_abs']:.3g} (at {w.get('material')}, v0 = {w.get('v0', 0):.4g} "
                   f"m/s, F = {w.get('F', 0):.4g} N), median {err['median_abs']:.3g}")
     except (OSError, ValueError) as exc:
@@ -422,7 +436,8 @@ def _cmd_bounce(args):
 
 def _add_example_commands(sub):
     ex = sub.add_parser("example", help="worked examples (the bouncing ball)")
-    exs = ex.add_subparsers(dest="example", required=True, metavar="EXAMPLE")
+    exs = ex.add_subparsers(dest="example", required=True, metavar="EXAMPLE",
+                            help="the example to run")
     p = exs.add_parser(
         "bounce", help="a ball dropped from 1 m, each impact's CoR from the engine",
         description="Drop a bead (default: the report's steel ball, KK) from a height and "
@@ -459,9 +474,12 @@ def build_parser() -> argparse.ArgumentParser:
         prog="sweep",
         description="Parameter sweeps of the coefficient of restitution of a bead on a "
                     "nonlinear visco-elastic contact (Chatterjee, James, Brogliato 2021).")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}",
+                        help="print the version of sweep and exit")
     parser.add_argument("--debug", action="store_true",
                         help="show the traceback of an error instead of a one-line message")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                help="what to do (sweep COMMAND --help for its options)")
     _add_run_command(sub)
     _add_info_and_validate_commands(sub)
     add_report_commands(sub)

@@ -1,4 +1,5 @@
 """The command line (sweep.cli), including a real kill -9 and resume."""
+import argparse
 import os
 import signal
 import subprocess
@@ -78,13 +79,62 @@ def test_default_output_name_and_progress_bar_only_on_a_terminal(cfg, tmp_path, 
     assert cli.main(["run", str(cfg)]) == 0
     err = capsys.readouterr().err
     assert (tmp_path / "c.nc").exists()
-    assert "wrote c.nc" in err and "pt/s]" not in err        # stderr is not a terminal
+    assert "wrote c.nc" in err and "pt/s]" not in err        # stderr is not a terminal:
+    assert "c.nc: 60/60 points (100%) in " in err               # plain progress lines
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
     assert cli.main(["run", str(cfg), "-o", "bar.nc"]) == 0
     err = capsys.readouterr().err
     assert "pt/s]" in err and "100%" in err and "<00:00" in err   # tqdm: rate and ETA
     assert cli.main(["run", str(cfg), "-o", "quiet.nc", "--quiet"]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_version(capsys):
+    from sweep import __version__
+
+    with pytest.raises(SystemExit) as info:
+        cli.main(["--version"])
+    assert info.value.code == 0 and capsys.readouterr().out == f"sweep {__version__}\n"
+    res = subprocess.run([sys.executable, "-m", "sweep", "--version"], capture_output=True,
+                         text=True, cwd=ROOT)
+    assert res.returncode == 0 and res.stdout == f"sweep {__version__}\n"
+
+
+def test_python_dash_m_sweep_is_the_command(cfg):
+    res = subprocess.run([sys.executable, "-m", "sweep", "validate", str(cfg),
+                          "--no-estimate"], capture_output=True, text=True, cwd=ROOT)
+    assert res.returncode == 0, res.stderr
+    assert "valid" in res.stdout and "points: 60 in 4 chunks of <= 16" in res.stdout
+    res = subprocess.run([sys.executable, "-m", "sweep", "nonsense"], capture_output=True,
+                         text=True, cwd=ROOT)
+    assert res.returncode == 2 and "invalid choice" in res.stderr
+
+
+def _parsers(parser):
+    yield parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                yield from _parsers(sub)
+
+
+def test_every_option_and_subcommand_has_help():
+    missing = []
+    for parser in _parsers(cli.build_parser()):
+        for action in parser._actions:
+            if not action.help or action.help == argparse.SUPPRESS:
+                missing.append(f"{parser.prog}: {action.option_strings or action.dest}")
+            if isinstance(action, argparse._SubParsersAction):
+                missing += [f"{parser.prog} {c.dest}" for c in action._choices_actions
+                            if not c.help]
+    assert not missing, missing
+
+
+def test_unknown_key_is_reported_before_the_missing_one(cfg, capsys):
+    cfg.write_text(CONFIG.replace('kind = "grid"', 'knd = "grid"'))
+    assert cli.main(["validate", str(cfg)]) == 1
+    err = capsys.readouterr().err
+    assert "design.knd: unknown key (did you mean 'kind'?)" in err and "required" not in err
 
 
 def test_info_on_a_missing_file(tmp_path, capsys):

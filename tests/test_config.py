@@ -61,8 +61,10 @@ def test_doe_config_parses_bounds():
 
 
 def test_outputs_decide_what_runs():
+    kk = DOE.replace("alpha = {min = 1.0, max = 3.0}", "alpha = 1.5")   # where sp is defined
+
     def outputs(e, fields="[]"):
-        return config.loads(DOE.replace('e = ["ord1"]', f"e = {e}\nfields = {fields}")).outputs
+        return config.loads(kk.replace('e = ["ord1"]', f"e = {e}\nfields = {fields}")).outputs
 
     only_ord1 = outputs('["ord1"]')
     assert not only_ord1.needs_integration and only_ord1.approximations == ("ord1",)
@@ -226,3 +228,122 @@ def test_bundled_configs_are_valid_and_sized_as_documented():
         assert cfg.design.axes[:2] == ((a,), (b,))
         assert cfg.design.axes[2] == tuple(np.linspace(0.0, 0.1, 1000))
         assert cfg.design.axes[3] == (0.0, 0.05, 1.0, 10.0)
+
+
+# --------------------------------------------------------------------------- typos first
+
+@pytest.mark.parametrize("old, new, message", [
+    ('sampler = "sobol"', 'samplr = "sobol"',
+     "design.samplr: unknown key (did you mean 'sampler'?); allowed keys here: alpha, beta, "
+     "gamma, gtilde, kind, n, sampler, scramble, seed"),
+    ("gamma = {min = 1e-4, max = 1.0", "gamma = {mn = 1e-4, max = 1.0",
+     "design.gamma.mn: unknown key (did you mean 'min'?)"),
+    ('kind = "doe"', 'knd = "doe"', "design.knd: unknown key (did you mean 'kind'?)"),
+    ("gtilde = {min", "gtlde = {min", "design.gtlde: unknown key (did you mean 'gtilde'?)"),
+    ("[outputs]", "[output]", "output: unknown key (did you mean 'outputs'?)"),
+])
+def test_an_unknown_key_is_reported_before_the_key_it_misspells(old, new, message):
+    with pytest.raises(ConfigError) as info:
+        config.loads(DOE.replace(old, new))
+    assert str(info.value).startswith(message)
+    assert "required" not in str(info.value)
+
+
+def test_unknown_keys_first_in_grids_and_scenes():
+    with pytest.raises(ConfigError, match=r"^design.gamma.nm: unknown key \(did you mean 'num'"):
+        config.loads(GRID.replace("num = 5", "nm = 5"))
+    scene = """
+[design]
+kind = "scene"
+v0 = 1.0
+F = 0.0
+[design.materials.glass]
+law = "kk"
+radius = 1e-3
+desnity = 2500.0
+E = 63e9
+nu = 0.22
+damping = {model = "target_e", e = 0.97, v0 = 1.0}
+[outputs]
+e = ["numeric"]
+"""
+    with pytest.raises(ConfigError, match=r"^design.materials.glass.desnity: unknown key "
+                                          r"\(did you mean 'density'\?\)"):
+        config.loads(scene)
+    with pytest.raises(ConfigError, match=r"damping.modle: unknown key \(did you mean 'model'"):
+        config.loads(scene.replace("desnity", "density").replace("{model", "{modle"))
+    # a parameter of another damping model is declared, but refused for this one
+    with pytest.raises(ConfigError, match=r"damping.eta1: unknown key; allowed keys here: e, "
+                                          r"model, v0"):
+        config.loads(scene.replace("desnity", "density").replace("v0 = 1.0}",
+                                                                 "v0 = 1.0, eta1 = 2.0}"))
+
+
+# --------------------------------------------------------------------------- method domains
+
+def test_sp_off_its_domain_is_refused_naming_method_and_exponents():
+    sp = 'e = ["numeric", "sp"]\nfields = ["status"]'
+    with pytest.raises(ConfigError, match=r"^outputs.e: method 'sp' is defined for \(alpha, "
+                                          r"beta\) = \(1.5, 1.5\) only, and the design has "
+                                          r"\(alpha, beta\) = \(1.5, 1\); leave sp out"):
+        config.loads(GRID.replace('e = ["numeric", "ord1"]\nfields = ["status", "error_ord1"]',
+                                  sp))
+    with pytest.raises(ConfigError, match="samples alpha or beta over a range"):
+        config.loads(DOE.replace('e = ["ord1"]', 'e = ["sp"]'))
+    with pytest.raises(ConfigError, match=r"^outputs.fields: method 'sp' .* leave error_sp out"):
+        config.loads(DOE.replace("alpha = {min = 1.0, max = 3.0}", "alpha = 2.0")
+                     .replace('e = ["ord1"]', 'fields = ["error_sp"]'))
+    # on its domain it is accepted
+    kk = DOE.replace("alpha = {min = 1.0, max = 3.0}", "alpha = 1.5")
+    assert config.loads(kk.replace('e = ["ord1"]', 'e = ["sp"]')).outputs.methods == ("sp",)
+    assert config.loads(GRID.replace("beta = [1.0, 1.5]", "beta = 1.5").replace(
+        'e = ["numeric", "ord1"]\nfields = ["status", "error_ord1"]', sp)).outputs.methods == (
+        "numeric", "sp")
+
+
+def test_all_means_every_method_defined_on_the_design():
+    every = config.loads(GRID.replace('e = ["numeric", "ord1"]\nfields = ["status", '
+                                      '"error_ord1"]', 'e = "all"\nfields = "all"')).outputs
+    assert "sp" not in every.methods and "error_sp" not in every.fields
+    assert every.methods == tuple(m for m in config.METHODS if m not in ("auto", "sp"))
+
+
+def test_scene_domains_are_the_materials_laws():
+    scene = """
+[design]
+kind = "scene"
+v0 = 1.0
+F = 0.0
+[design.materials.a]
+law = "kk"
+m = 0.1
+k = 1e9
+gamma0 = 1e-6
+[outputs]
+e = ["sp"]
+"""
+    assert config.loads(scene).outputs.methods == ("sp",)
+    with pytest.raises(ConfigError, match=r"design has \(alpha, beta\) = \(1.5, 1.25\)"):
+        config.loads(scene + '[design.materials.b]\nlaw = "tti"\nm = 0.1\nk = 1e9\n'
+                             'gamma0 = 1e-6\n')
+
+
+# --------------------------------------------------------------------------- dicts
+
+def test_dict_configurations_are_written_as_toml_that_reads_back():
+    from sweep.sweeps import toml_text
+
+    data = {"title": 'quote " backslash \\ tab \t unicode é \x7f', "n": np.int32(3),
+            "x": np.float64(1e-5), "flag": np.bool_(True), "list": (1, 2.5, "a"),
+            "design": {"kind": "grid", "range": {"start": 0.0, "num": 3},
+                       "materials": {"steel": {"law": "kk", "floor": {"E": 1e9}}},
+                       "key with space": 1}}
+    import tomllib
+
+    back = tomllib.loads(toml_text.dumps(data))
+    assert back == {**data, "n": 3, "x": 1e-5, "flag": True, "list": [1, 2.5, "a"]}
+    with pytest.raises(toml_text.TomlValueError, match=r"design.alpha: TOML has no value"):
+        toml_text.dumps({"design": {"alpha": None}})
+    cfg = config.from_dict(tomllib.loads(GRID))
+    assert cfg.sha256 == config.loads(GRID).sha256 and cfg.title == "t"
+    assert config.as_config(GRID).sha256 == cfg.sha256

@@ -41,7 +41,7 @@ beta = 1.5
 gamma = {min = 1e-3, max = 0.5, scale = "log"}
 gtilde = {min = 0.0, max = 10.0}
 [outputs]
-e = ["numeric", "sp"]
+e = ["numeric", "ord1"]
 fields = "all"
 [integrator]
 steps = 16
@@ -134,7 +134,20 @@ def test_xarray_reads_back_exactly_what_was_computed(files, kind, decoding):
             assert ds[name].dtype == dtype, name         # no promotion of ints to float
             got = ds[name].values.reshape(-1)
             np.testing.assert_array_equal(got, values.astype(dtype), err_msg=name)
-        assert np.isnan(ds.e_sp.values).any()            # NaN (an invalid point) stays NaN
+
+
+@pytest.mark.parametrize("decoding", [{}, {"mask_and_scale": False}, {"decode_cf": False}],
+                         ids=["default", "mask_and_scale=False", "decode_cf=False"])
+def test_nan_at_an_invalid_point_reads_back_as_nan(tmp_path, decoding):
+    # A valid configuration has no invalid point (sp off its domain is refused): write one.
+    d = design.build(config.loads(DOE).design)
+    writer = store.NetCDFWriter(tmp_path / "nan.nc", d.layout(), ("e_ord1",))
+    e = np.linspace(0.0, 1.0, d.size)
+    e[[0, 7]] = np.nan
+    writer.write(0, d.size, {"e_ord1": e}, dict(zip(config.PARAMETERS, d.points(0, d.size))))
+    writer.close()
+    with xr.open_dataset(tmp_path / "nan.nc", **decoding) as ds:
+        np.testing.assert_array_equal(ds.e_ord1.values, e)       # NaN stays NaN, no others
 
 
 def test_provenance_attributes(files):

@@ -301,12 +301,41 @@ def test_paper_report_files(tmp_path):
     assert "Table 4: Kuwabara-Kono" in md and "1.37e-05" in md and "2.11e-02" in md
     rows = _read_csv(out / "paper_tables.csv")
     assert {r["table"] for r in rows} == {"Table 4"}
+    # the summary, and nothing the user does not have (transcription notes, specs)
+    assert res["summary"].startswith("Reproduced ") and res["summary"] in md
+    assert "SPEC" not in md and "OCR" not in md
     crit = res["critical"]["kk"]
     # (24) is the small-gamma asymptote: close at gamma <= 0.01, worse at gamma = 1
     assert np.nanmax(crit["relerr_zoom"]) < 0.05
     assert crit["relerr"][-1] > 0.3
     np.testing.assert_allclose(crit["approx"], 0.30522 * crit["gamma"] ** (-6 / 11),
                                rtol=1e-4)
+
+
+def test_paper_reproduction_summary_counts_and_explains(monkeypatch, capsys):
+    from sweep import cli
+    from sweep.reports import paper
+
+    def row(ours, report, shifted=None):
+        return {"max_abs_error": ours, "report": report, "max_shifted": shifted,
+                "ratio": ours / report if report else None}
+
+    rows = [row(1.005e-3, 1e-3), row(0.0, 2.84e-13), row(2.5e-2, 2.5e-1),
+            row(1.05e-3, 1e-3, 0.95e-3), row(1.05e-3, 1e-3, 1.06e-3), row(2e-3, 1e-3),
+            row(1e-3, None)]
+    rep = paper.reproduction(rows)
+    assert (rep["n_published"], rep["n_reproduced"]) == (6, 1)
+    assert rep["summary"] == (
+        "Reproduced 1 of the report's 6 readable published maxima within 1% (ours / "
+        "report); the other 5: 1 zero to rounding in both, 1 off by a power of ten (an "
+        "apparent misprint), 1 bracketed by our two grids, 1 within 10%, 1 further off.")
+    assert [why for _, why in rep["others"]][1] == (
+        "ours is the report's times 1e-1: an apparent misprint of the exponent")
+    # the command prints it last
+    fake = {"markdown": "tables", "files": ["a.md"], "out": "p", "summary": rep["summary"]}
+    monkeypatch.setattr(paper, "paper_report", lambda *a, **k: fake)
+    assert cli.main(["report", "paper", "--quiet"]) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == rep["summary"]
 
 
 # --------------------------------------------------------------------------- speed

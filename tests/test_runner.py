@@ -16,7 +16,7 @@ beta = [1.0, 1.5]
 gamma = {start = 0.0, stop = 0.2, num = 9}
 gtilde = [0.0, 0.05, 1.0, 10.0]
 [outputs]
-e = ["numeric", "ord1", "sp"]
+e = ["numeric", "ord1", "large_gtilde"]
 fields = "all"
 [integrator]
 steps = 16
@@ -88,8 +88,7 @@ def test_grid_run_stores_exactly_what_the_api_computes(tmp_path):
         assert ds[name].dims == ("alpha", "beta", "gamma", "gtilde")
         assert ds[name].dtype == store.variable_spec(name)[0]
         np.testing.assert_array_equal(ds[name].values.reshape(-1), values, err_msg=name)
-    assert np.isnan(ds.e_sp.sel(beta=1.0)).all()          # sp is defined for KK only
-    assert np.isfinite(ds.e_sp.sel(beta=1.5)).all()
+    assert np.isfinite(ds.e_large_gtilde).all()
     a = ds.attrs
     assert a["Conventions"] == store.CONVENTIONS == "CF-1.8"
     assert a["sweep_config"] == GRID and a["sweep_config_sha256"] == config.loads(GRID).sha256
@@ -142,14 +141,14 @@ def test_error_fields_share_one_integration(tmp_path, monkeypatch):
 
     monkeypatch.setattr(api, "integrate", integrate)
     monkeypatch.setattr(api, "cor", cor)
-    text = GRID.replace('e = ["numeric", "ord1", "sp"]', 'e = ["numeric"]').replace(
-        'fields = "all"', 'fields = ["error_ord1", "error_sp"]')
+    text = GRID.replace('e = ["numeric", "ord1", "large_gtilde"]', 'e = ["numeric"]').replace(
+        'fields = "all"', 'fields = ["error_ord1", "error_large_gtilde"]')
     res = run(text, tmp_path / "e.nc")
     # one call per chunk, and one for the warm-up before them
     assert calls["integrate"] == res.chunks + 1 == 9
-    assert sorted(set(calls["cor"])) == ["ord1", "sp"] and len(calls["cor"]) == 18
+    assert sorted(set(calls["cor"])) == ["large_gtilde", "ord1"] and len(calls["cor"]) == 18
     ds = opened(tmp_path / "e.nc")
-    assert set(ds.data_vars) == {"e_numeric", "error_ord1", "error_sp"}
+    assert set(ds.data_vars) == {"e_numeric", "error_ord1", "error_large_gtilde"}
 
 
 def test_results_do_not_depend_on_chunk_size_or_thread_count(tmp_path, monkeypatch):

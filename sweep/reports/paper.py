@@ -50,8 +50,8 @@ from sweep.reports.paper_values import (FIGURES_CRITICAL, GAMMA_MAX, GRID_END_FA
                                         TABLE_B_EDGES, TRANSCRIPTION_NOTES, WINDOW_FRACTIONS)
 
 __all__ = ["paper_report", "gamma_c_24", "paper_gamma_grid", "window_masks", "WINDOWS",
-           "compute_sweeps", "table_rows", "critical_curves",
-           "COEFFICIENTS"]
+           "compute_sweeps", "table_rows", "critical_curves", "reproduction",
+           "COEFFICIENTS", "REPRODUCED_RTOL"]
 
 #: Column name -> sweep method: the report's two kinds of I, Q.
 COEFFICIENTS = {"numint": "ord2_numint", "approx": "ord2_approx"}
@@ -215,6 +215,73 @@ def _markdown_tables(rows):
             out.append(f"Transcription: {v}")
         out.append("")
     return "\n".join(out)
+
+
+# --------------------------------------------------------------------------- reproduction
+
+#: A published maximum is reproduced when ours / the report's is within this of 1.
+REPRODUCED_RTOL = 0.01
+#: Maxima below this are round-off: the report prints ~1e-13 where both e are 0.
+ROUND_OFF = 1e-12
+_COLUMNS = {"numint": "num. I,Q", "approx": "approx. I,Q"}
+
+
+def _why_not_reproduced(row):
+    """Why a published maximum is not within REPRODUCED_RTOL of ours: (kind, phrase)."""
+    ours, report, ratio = row["max_abs_error"], row["report"], row["ratio"]
+    if max(ours, report) < ROUND_OFF:
+        return "zero to rounding in both", "both are zero to rounding"
+    k = round(float(np.log10(ratio))) if ratio > 0 else 0
+    if k != 0 and abs(ratio / 10.0 ** k - 1) <= REPRODUCED_RTOL:
+        return ("off by a power of ten (an apparent misprint)",
+                f"ours is the report's times 1e{k}: an apparent misprint of the exponent")
+    shifted = row["max_shifted"]
+    if shifted is not None and min(ours, shifted) <= report <= max(ours, shifted):
+        return ("bracketed by our two grids",
+                "our grid shifted by half a step brackets it: where the maximum falls")
+    return ("within 10%" if abs(ratio - 1) <= 0.1 else "further off"), f"ratio {ratio:.3g}"
+
+
+def reproduction(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """How many of the report's published maxima the recomputed tables reproduce.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        :func:`table_rows`.
+
+    Returns
+    -------
+    dict
+        ``n_published`` (readable published maxima with a recomputed value),
+        ``n_reproduced`` (ours / the report's within :data:`REPRODUCED_RTOL` of 1),
+        ``others`` (list of (row, phrase saying why)) and ``summary`` (one line).
+    """
+    published = [r for r in rows if r["report"] is not None and r["max_abs_error"] is not None]
+    others = [(r, _why_not_reproduced(r)) for r in published
+              if abs(r["ratio"] - 1) > REPRODUCED_RTOL]
+    kinds: dict[str, int] = {}
+    for _, (kind, _) in others:
+        kinds[kind] = kinds.get(kind, 0) + 1
+    n_ok = len(published) - len(others)
+    summary = (f"Reproduced {n_ok} of the report's {len(published)} readable published "
+               f"maxima within {REPRODUCED_RTOL:.0%} (ours / report)")
+    if others:
+        summary += (f"; the other {len(others)}: "
+                    + ", ".join(f"{n} {kind}" for kind, n in kinds.items()))
+    return {"n_published": len(published), "n_reproduced": n_ok,
+            "others": [(r, why) for r, (_, why) in others], "summary": summary + "."}
+
+
+def _reproduction_markdown(rep):
+    """The summary line and one line per maximum not reproduced."""
+    lines = ["### Reproduced maxima", "", rep["summary"], ""]
+    for r, why in rep["others"]:
+        lines.append(f"- {r['table']}({r['part']}), {r['model']}, g~ = {r['gtilde']:g}, "
+                     f"{_COLUMNS[r['coefficients']]}, {r['gamma_range']}: ours "
+                     f"{format_value(r['max_abs_error'])}, report {format_value(r['report'])}"
+                     f" ({why})")
+    return "\n".join(lines) + "\n"
 
 
 # --------------------------------------------------------------------------- Figures 8-11
@@ -383,7 +450,8 @@ def _figure_files(out, models, crit, sweeps):
 
 
 def _report_markdown(rows, crit_md, n_gamma, steps, machine, elapsed):
-    """paper_report.md: the tables next to the report's, the g~_c summary, the machine."""
+    """paper_report.md: the reproduction summary, the tables next to the report's, the
+    g~_c summary, the machine."""
     head = [
         "## The report's Tables 2-5 recomputed",
         "",
@@ -394,9 +462,12 @@ def _report_markdown(rows, crit_md, n_gamma, steps, machine, elapsed):
         f"{n_gamma} gamma values on [0, min(0.1, 1.1 gamma_c(24))] per (model, g~), the "
         "report's; 'shifted grid' = the same maxima with every gamma moved by half a step.",
         "",
+        reproduction(rows)["summary"],
+        "",
     ]
-    return "\n".join(head) + _markdown_tables(rows) + "\n" + crit_md + (
-        f"\nMachine: {machine_line(machine)}. Report computed in {elapsed:.0f} s.\n")
+    return ("\n".join(head) + _markdown_tables(rows) + "\n"
+            + _reproduction_markdown(reproduction(rows)) + "\n" + crit_md
+            + f"\nMachine: {machine_line(machine)}. Report computed in {elapsed:.0f} s.\n")
 
 
 def paper_report(out: str | os.PathLike = "paper_report", n_gamma: int = 1000, *,
@@ -426,7 +497,8 @@ def paper_report(out: str | os.PathLike = "paper_report", n_gamma: int = 1000, *
     -------
     dict
         ``out``, ``files``, ``rows`` (table rows, see :func:`table_rows`), ``critical``
-        (see :func:`critical_curves`), ``crit_rows``, ``markdown``, ``sweeps``.
+        (see :func:`critical_curves`), ``crit_rows``, ``markdown``, ``sweeps``,
+        ``summary`` (how many published maxima are reproduced, :func:`reproduction`).
 
     Raises
     ------
@@ -458,4 +530,5 @@ def paper_report(out: str | os.PathLike = "paper_report", n_gamma: int = 1000, *
     (out / "paper_report.md").write_text(md, encoding="utf-8")
     files.insert(0, out / "paper_report.md")
     return {"out": out, "files": files, "rows": rows, "critical": crit,
-            "crit_rows": crit_rows, "markdown": md, "sweeps": sweeps}
+            "crit_rows": crit_rows, "markdown": md, "sweeps": sweeps,
+            "summary": reproduction(rows)["summary"]}

@@ -109,7 +109,8 @@ FIGURES_CRITICAL = {"gamma_min": 1e-4, "gamma_max": 1.0, "gamma_max_zoom": 0.01,
 #: Why an entry above is None (or uncertain), keyed by (model, part, g~, column).
 TRANSCRIPTION_NOTES = {
     ("hertz", "b", 10.0, "edge1"):
-        "Table 2(b) header garbled in the OCR copy; by the window rule it would be 0.00111.",
+        "Table 2(b) header unreadable in the copy of the report transcribed here; by the "
+        "window rule it would be 0.00111.",
     ("hertz", "b", 10.0, "numint"):
         "Table 2(b) 'Num.' row: the first two maxima are garbled ('...0^{-3}' survives: the "
         "second is of order 1e-3).",
@@ -119,7 +120,7 @@ TRANSCRIPTION_NOTES = {
         "approximated one reads 9.17e-6 (itself partly garbled: '9.17x10^{-10})^{-6}').",
     ("kk", "a", 0.05, "approx"):
         "Table 4(a), g~ = 0.05, approximated coefficients, gamma >= 0.02: missing from the "
-        "OCR copy (SPEC section 5 does not quote it either).",
+        "copy of the report transcribed here.",
     ("shc", "b", 10.0, "numint"):
         "Table 5(b), third window, 'Num.': printed '2 34 x 10^-13' (2.34e-13 or 2.84e-13); "
         "either way zero to rounding.",

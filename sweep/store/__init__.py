@@ -25,8 +25,14 @@ Modules, one job each:
 :mod:`~sweep.store.layout`
     The runner-store contract: :class:`Layout`, :func:`flat_blocks`, the :class:`Writer`
     protocol.
+:mod:`~sweep.store.schema`
+    What a dataset holds whatever the backend: its variables as stored, the arrays of a
+    chunk, stored attributes (shared by the two writers).
 :mod:`~sweep.store.netcdf`
     :class:`NetCDFWriter`, storage chunking and compression, :func:`commit`.
+:mod:`~sweep.store.memory`
+    :class:`MemoryWriter`: the same dataset assembled in memory as an ``xarray.Dataset``
+    (``sweep.run`` without ``out=``).
 :mod:`~sweep.store.partial`
     :class:`PartialStore` (manifest, verified chunk files), :class:`OutputLock`,
     :class:`ResumeError`, :class:`LockError`.
@@ -34,13 +40,15 @@ Modules, one job each:
     :func:`summarize` (``sweep info``), :func:`read_global_attrs`.
 
 This package re-exports their public names (``from sweep import store; store.X``). It is
-floor 1: it may import numpy, netCDF4 and floor 0 facts (:mod:`sweep.registry`, in
-:mod:`~sweep.store.metadata` only); it knows nothing of numba, the kernels, the api or how
-the values are computed.
+floor 1: it may import numpy, netCDF4, xarray (lazily, in :mod:`~sweep.store.memory`) and
+floor 0 (:mod:`sweep.registry`'s facts in :mod:`~sweep.store.metadata` only,
+:mod:`sweep._format`'s number formats in :mod:`~sweep.store.summary`); it knows nothing of
+numba, the kernels, the api or how the values are computed.
 """
 from __future__ import annotations
 
 from sweep.store.layout import Layout, Writer, flat_blocks
+from sweep.store.memory import MemoryWriter
 from sweep.store.metadata import (CONVENTIONS, REPORT, SPACINGS, coordinate_attrs,
                                   index_dtype, variable_spec)
 from sweep.store.netcdf import (CHUNK_CACHE_BYTES, COMPLEVEL, STORAGE_CHUNK, SUFFIXES,
@@ -52,7 +60,7 @@ from sweep.store.summary import read_global_attrs, summarize
 
 __all__ = [
     "Layout", "Writer", "variable_spec", "coordinate_attrs", "PartialStore", "ResumeError",
-    "NetCDFWriter", "commit", "read_global_attrs", "flat_blocks", "summarize",
+    "NetCDFWriter", "MemoryWriter", "commit", "read_global_attrs", "flat_blocks", "summarize",
     "partial_dir", "MANIFEST_FORMAT", "REPORT", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK",
     "COMPLEVEL", "SUFFIXES", "CHUNK_FORMAT", "LockError", "OutputLock", "lock_path",
     "partial_bytes", "remove_untrusted", "CONVENTIONS", "SPACINGS", "index_dtype",

@@ -12,8 +12,11 @@ dimensions (material, v0, F) with gamma and g~ as data variables on them and the
 properties on ``material``. Attributes, fill values and storage dtypes come from
 :mod:`sweep.store.metadata` and the layout's own (:attr:`~sweep.store.layout.Layout.attrs`).
 
+What the file holds (variables, attributes as stored, the arrays of each chunk) comes from
+:mod:`sweep.store.schema`, shared with the in-memory writer.
+
 May import: numpy, netCDF4 and the store's own :mod:`~sweep.store.layout` and
-:mod:`~sweep.store.metadata`. Nothing of numba, the kernels or any floor above the store.
+:mod:`~sweep.store.schema`. Nothing of numba, the kernels or any floor above the store.
 """
 from __future__ import annotations
 
@@ -23,10 +26,10 @@ from pathlib import Path
 from typing import Any
 
 import netCDF4
-import numpy as np
 
 from sweep.store.layout import Layout, flat_blocks
-from sweep.store.metadata import coordinate_attrs, index_dtype, variable_spec
+from sweep.store.schema import (Variable, cast_exactly, chunk_values, dataset_variables,
+                                stored_attr)
 
 __all__ = ["NetCDFWriter", "commit", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK", "COMPLEVEL",
            "SUFFIXES"]
@@ -87,28 +90,27 @@ class NetCDFWriter:
             self._nc.close()
             raise
 
-    def _create(self, name, dtype, dims, chunks, attrs):
-        attrs = dict(attrs)
+    def _create(self, var: Variable, chunks: tuple) -> None:
+        """A variable filled chunk by chunk: compressed, in storage chunks."""
+        attrs = dict(var.attrs)
         # _FillValue must be set when the variable is created; False: no _FillValue.
         fill = attrs.pop("_FillValue", False)
-        var = self._nc.createVariable(name, dtype, dims, zlib=True, complevel=COMPLEVEL,
-                                      shuffle=True, chunksizes=chunks, fill_value=fill)
-        var.set_var_chunk_cache(size=CHUNK_CACHE_BYTES)
-        var.set_auto_maskandscale(False)
-        var.setncatts(attrs)
-        return var
+        nc_var = self._nc.createVariable(var.name, var.dtype, var.dims, zlib=True,
+                                         complevel=COMPLEVEL, shuffle=True,
+                                         chunksizes=chunks, fill_value=fill)
+        nc_var.set_var_chunk_cache(size=CHUNK_CACHE_BYTES)
+        nc_var.set_auto_maskandscale(False)
+        nc_var.setncatts(attrs)
 
-    def _constant(self, name, dims, values):
+    def _constant(self, var: Variable) -> None:
         """A variable written once, here: an axis or a constant of the layout."""
-        values = np.asarray(values)
-        if values.dtype.kind in "OUS":  # names (a scene's materials): netCDF strings
-            var = self._nc.createVariable(name, str, dims)
-            var[:] = values.astype(object)
+        if var.dtype == object:  # names (a scene's materials): netCDF strings
+            nc_var = self._nc.createVariable(var.name, str, var.dims)
+            nc_var[:] = var.values
         else:
-            var = self._nc.createVariable(name, np.float64, dims, fill_value=False)
-            var[...] = values.astype(np.float64)
-        var.setncatts({**coordinate_attrs(name, self.layout.spacing.get(name)),
-                       **self.layout.attrs.get(name, {})})
+            nc_var = self._nc.createVariable(var.name, var.dtype, var.dims, fill_value=False)
+            nc_var[...] = var.values
+        nc_var.setncatts(var.attrs)
 
     def _define(self, attrs):
         nc, lay = self._nc, self.layout
@@ -116,21 +118,11 @@ class NetCDFWriter:
         for dim, n in zip(lay.dims, lay.shape):
             nc.createDimension(dim, n)
         chunks = _storage_chunks(lay.shape)
-        for name, values in lay.axes.items():
-            self._constant(name, (name,), values)
-        for name, (dims, values) in lay.constants.items():
-            self._constant(name, tuple(dims), values)
-        if lay.point_coords:  # the index of the single dimension, written chunk by chunk
-            self._create(lay.dims[0], index_dtype(lay.size), lay.dims, chunks,
-                         coordinate_attrs(lay.dims[0]))
-        for name in lay.per_point:
-            self._create(name, np.dtype(np.float64), lay.dims, chunks,
-                         {**coordinate_attrs(name), **lay.attrs.get(name, {})})
-        for name in self.variables:
-            dtype, vattrs = variable_spec(name)
-            if lay.point_coords:
-                vattrs = dict(vattrs, coordinates=" ".join(lay.point_coords))
-            self._create(name, dtype, lay.dims, chunks, vattrs)
+        for var in dataset_variables(lay, self.variables):
+            if var.values is not None:
+                self._constant(var)
+            else:
+                self._create(var, chunks)
         self.set_attrs(attrs)
 
     def set_attrs(self, attrs: Mapping[str, Any]) -> None:
@@ -142,11 +134,7 @@ class NetCDFWriter:
             netCDF has no boolean or null attribute: booleans are stored as 0 / 1.
         """
         for key, value in attrs.items():
-            if value is None:
-                value = "default"
-            elif isinstance(value, bool):
-                value = int(value)
-            self._nc.setncattr(key, value)
+            self._nc.setncattr(key, stored_attr(value))
 
     def write(self, start: int, stop: int, arrays: Mapping[str, Any],
               points: Mapping[str, Any] | None = None) -> None:
@@ -167,20 +155,9 @@ class NetCDFWriter:
         ValueError
             If an array has the wrong length, or per-point coordinates are missing.
         """
-        todo = dict(arrays)
-        if self.layout.per_point:
-            if points is None:
-                raise ValueError("per-point coordinates are required for this layout")
-            todo.update({k: points[k] for k in self.layout.per_point})
-        if self.layout.point_coords:   # the index of a scattered design's dimension
-            todo[self.layout.dims[0]] = np.arange(start, stop)
-        for name, arr in todo.items():
+        for name, arr in chunk_values(self.layout, start, stop, arrays, points).items():
             var = self._nc.variables[name]
-            arr = np.asarray(arr)
-            if arr.shape != (stop - start,):
-                raise ValueError(f"{name}: expected {stop - start} values, got {arr.shape}")
-            if arr.dtype != var.dtype:  # booleans -> byte flags; no value may change
-                arr = _cast_exactly(name, arr, var.dtype)
+            arr = cast_exactly(name, arr, var.dtype)  # booleans -> byte flags
             for sl, lo, hi in flat_blocks(self.layout.shape, start, stop):
                 block = arr[lo - start:hi - start]
                 var[sl] = block.reshape(tuple(s.stop - s.start for s in sl))
@@ -190,14 +167,6 @@ class NetCDFWriter:
         nc, self._nc = self._nc, None
         if nc is not None and nc.isopen():
             nc.close()
-
-
-def _cast_exactly(name: str, arr: np.ndarray, dtype: np.dtype) -> np.ndarray:
-    """``arr`` in the storage ``dtype``, refusing a conversion that would change a value."""
-    out = arr.astype(dtype)
-    if not np.array_equal(out, arr, equal_nan=out.dtype.kind == "f"):
-        raise ValueError(f"{name}: values do not fit the stored type {dtype}")
-    return out
 
 
 def _fsync_path(path, directory=False):

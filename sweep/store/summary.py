@@ -4,8 +4,9 @@ Owns :func:`summarize` (dimensions, coordinates, variables with summary statisti
 settings, read in bounded pieces so a file of any size can be described) and
 :func:`read_global_attrs` (how the runner recognises an existing output).
 
-May import: numpy, netCDF4 and the store's own :mod:`~sweep.store.layout` and
-:mod:`~sweep.store.metadata`. Nothing of numba, the kernels or any floor above the store.
+May import: numpy, netCDF4, the store's own :mod:`~sweep.store.layout` and
+:mod:`~sweep.store.metadata`, and :mod:`sweep._format` (floor 0). Nothing of numba, the
+kernels or any floor above the store.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from typing import Any
 import netCDF4
 import numpy as np
 
+from sweep._format import count
 from sweep.store.layout import flat_blocks
 from sweep.store.metadata import variable_spec
 
@@ -86,7 +88,7 @@ def summarize(path: str | os.PathLike) -> str:
         lines.append(f"{path}: {attrs.get('title', '')}")
         dims = {d: len(nc.dimensions[d]) for d in nc.dimensions}
         lines.append("dimensions: " + ", ".join(f"{d} = {n}" for d, n in dims.items())
-                     + f"  ({math.prod(dims.values())} points)")
+                     + f"  ({count(math.prod(dims.values()), 'point')})")
         # Dimension coordinates (a scene's material, v0, F; not the integer index of a
         # design of experiments' points, which the dimension line already tells), then the
         # scaled parameters.

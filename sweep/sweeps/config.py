@@ -1,9 +1,12 @@
 """Sweep configurations: TOML text -> validated, immutable configuration objects.
 
-A configuration is checked completely before anything is computed: unknown keys, wrong
-types, exponents below 1 (Assumption 1 of the report), negative damping or load and empty
-ranges raise :class:`ConfigError` with a message naming the key and the offending value,
-e.g. ``design.alpha.min: must be >= 1 (uniqueness is not known below 1), got 0.5``.
+A configuration is checked completely before anything is computed: unknown keys (reported
+before the required key they may misspell), wrong types, exponents below 1 (Assumption 1 of
+the report), negative damping or load, empty ranges and methods requested where the design
+leaves their domain (``sp`` off alpha = beta = 1.5, from
+:attr:`sweep.registry.Method.models`) raise :class:`ConfigError` with a message naming the
+key and the offending value, e.g. ``design.alpha.min: must be >= 1 (uniqueness is not known
+below 1), got 0.5``.
 
 Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` optional)::
 
@@ -49,7 +52,8 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     # or {model = "tsuji", e = 0.9} (law "tti") or {model = "kuwabara_kono", eta1 = .., eta2 = ..}
 
     [outputs]
-    e = ["numeric", "ord1"]        # or "all" (every method but "auto"): variables e_<method>
+    e = ["numeric", "ord1"]        # or "all": every method defined on the whole design (sp:
+                                   # alpha = beta = 1.5 only) but "auto"; variables e_<method>
     fields = ["status", "error_ord1"]   # or "all" (sticks, t_f, u_max, n_steps, status,
                                         # error_<m> for every approximation in e)
 
@@ -76,8 +80,12 @@ A configuration file is refused before it is parsed when it is larger than
 not read forever), is not UTF-8 text, or nests deeper than
 :data:`~sweep.sweeps.limits.CONFIG_MAX_DEPTH`.
 
-Owns: the configuration format and its validation. May import: :mod:`sweep.registry` and
-:mod:`sweep.sweeps.limits` (no kernels, no numba).
+A configuration may also come as a dict (:func:`from_dict`: written as TOML text by
+:mod:`sweep.sweeps.toml_text`, then parsed as a file is) or as any of a path, TOML text, a
+dict or a :class:`Config` (:func:`as_config`, behind ``sweep.run``).
+
+Owns: the configuration format and its validation. May import: :mod:`sweep.registry`,
+:mod:`sweep.sweeps.limits` and :mod:`sweep.sweeps.toml_text` (no kernels, no numba).
 """
 from __future__ import annotations
 
@@ -93,7 +101,7 @@ from typing import Any, Callable
 import numpy as np
 
 from sweep import registry
-from sweep.sweeps import limits
+from sweep.sweeps import limits, toml_text
 
 try:  # Python >= 3.11
     import tomllib
@@ -103,7 +111,8 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10
 __all__ = [
     "ConfigError", "Config", "GridSpec", "DoESpec", "SceneSpec", "MaterialSpec", "Bound",
     "Outputs", "IntegratorSettings", "DAMPING_MODELS",
-    "load", "loads", "PARAMETERS", "METHODS", "APPROXIMATIONS", "INTEGRATOR_FIELDS",
+    "load", "loads", "from_dict", "as_config", "PARAMETERS", "METHODS", "APPROXIMATIONS",
+    "INTEGRATOR_FIELDS",
     "DESIGN_KINDS", "SAMPLERS", "DEFAULT_CHUNK_SIZE",
 ]
 
@@ -148,13 +157,22 @@ def _short(value, width=80):
 
 
 class _Table:
-    """A TOML table being read: tracks its dotted path and which keys were consumed."""
+    """A TOML table being read: tracks its dotted path and which keys were consumed.
+
+    A parser that knows every key its table may hold declares them first
+    (:meth:`expect`), so that a misspelt key is reported as unknown before the key it
+    misspells is reported missing (``samplr = "sobol"`` names ``samplr``, not
+    ``sampler``). Keys are also checked once more when the table is read
+    (:meth:`finish`): declared keys that do not apply (another damping model's parameter)
+    are refused there.
+    """
 
     def __init__(self, data, path, source):
         self.data = data
         self.path = path
         self.source = source
         self.used = set()
+        self.known = None  # every key the table may hold, once declared by expect()
 
     def key(self, name):
         return f"{self.path}.{name}" if self.path else name
@@ -167,12 +185,29 @@ class _Table:
     def has(self, name):
         return name in self.data
 
+    def expect(self, names):
+        """Declare every key this table may hold, and refuse any other now, before a
+        required key can be reported missing."""
+        self.known = frozenset(names)
+        self._refuse_unknown(sorted(self.known))
+
+    def missing(self, name, message):
+        """Report the absent required key ``name``; an unknown key spelt like it is the
+        likelier mistake, and is reported instead."""
+        # A declared table has refused its unknown keys already; in an undeclared one
+        # (the design before its kind is known) only a near spelling is surely a typo.
+        if self.known is None:
+            near = [k for k in self.data if k not in self.used
+                    and difflib.get_close_matches(k, [name], n=1)]
+            self._refuse_unknown([name], only=near, listing=False)
+        self.error(name, message)
+
     def get(self, name, check, rule, default=dataclasses.MISSING):
         """Read key ``name``, require ``check(value)``; absent -> default or error."""
         self.used.add(name)
         if name not in self.data:
             if default is dataclasses.MISSING:
-                self.error(name, f"is required ({rule})")
+                self.missing(name, f"is required ({rule})")
             return default
         value = self.data[name]
         if not check(value):
@@ -187,21 +222,26 @@ class _Table:
         self.used.add(name)
         if name not in self.data:
             if required:
-                self.error(name, "is required (a table)")
+                self.missing(name, "is required (a table)")
             return _Table({}, self.key(name), self.source)
         value = self.data[name]
         if not isinstance(value, dict):
             self.error(name, "must be a table", value)
         return _Table(value, self.key(name), self.source)
 
+    def _refuse_unknown(self, allowed, only=None, listing=True):
+        """Raise for the first key outside ``allowed`` (of ``only``, if given), listing
+        the allowed keys if they are all known."""
+        for name in self.data if only is None else only:
+            if name not in allowed:
+                hint = difflib.get_close_matches(name, allowed, n=1)
+                extra = f" (did you mean {hint[0]!r}?)" if hint else ""
+                listed = f"; allowed keys here: {', '.join(allowed) or 'none'}" if listing else ""
+                self.error(name, f"unknown key{extra}{listed}")
+
     def finish(self):
         """Refuse keys that were never read (typos must not be silently ignored)."""
-        for name in self.data:
-            if name not in self.used:
-                hint = difflib.get_close_matches(name, sorted(self.used), n=1)
-                extra = f" (did you mean {hint[0]!r}?)" if hint else ""
-                allowed = ", ".join(sorted(self.used)) or "none"
-                self.error(name, f"unknown key{extra}; allowed keys here: {allowed}")
+        self._refuse_unknown(sorted(self.used))
 
 
 def _check_domain(tab, key, name, value, domain=None):
@@ -236,6 +276,11 @@ class GridSpec:
     @property
     def size(self):
         return math.prod(self.shape)
+
+    @property
+    def exponents(self):
+        """Every (alpha, beta) of the design."""
+        return tuple((a, b) for a in self.axes[0] for b in self.axes[1])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -275,6 +320,12 @@ class DoESpec:
         """Parameters drawn by the sampler (the others are fixed), in PARAMETERS order."""
         return tuple(b for b in self.bounds if not b.fixed)
 
+    @property
+    def exponents(self):
+        """The design's (alpha, beta) when both are fixed; None when one is sampled."""
+        alpha, beta = self.bounds[:2]
+        return ((alpha.lo, beta.lo),) if alpha.fixed and beta.fixed else None
+
 
 def _axis_values(start, stop, num, spacing):
     """Coordinates of a range: ``np.linspace`` or ``np.geomspace`` (exact end points)."""
@@ -288,7 +339,7 @@ def _axis_values(start, stop, num, spacing):
 def _grid_axis(design, name):
     """Parse one grid axis: a number, a non-empty list, or {values} / {start, stop, num}."""
     if not design.has(name):
-        design.error(name, "is required (a number, a list, or {start, stop, num[, spacing]})")
+        design.missing(name, "is required (a number, a list, or {start, stop, num[, spacing]})")
     value = design.raw(name)
     if _is_number(value):
         _check_domain(design, name, name, value)
@@ -298,6 +349,7 @@ def _grid_axis(design, name):
     if not isinstance(value, dict):
         design.error(name, "must be a number, a list of numbers, or a range table", value)
     tab = _Table(value, design.key(name), design.source)
+    tab.expect(("values", "start", "stop", "num", "spacing"))
     if tab.has("values"):
         vals = _grid_list(tab, "values", tab.raw("values"))
         tab.finish()
@@ -345,6 +397,7 @@ def _axis_spacing(value, values):
 
 
 def _parse_grid(design):
+    design.expect(("kind",) + PARAMETERS)
     axes = tuple(_grid_axis(design, name) for name in PARAMETERS)
     design.finish()
     spacing = tuple(_axis_spacing(design.data[name], axis)
@@ -354,7 +407,7 @@ def _parse_grid(design):
 
 def _doe_bound(design, name):
     if not design.has(name):
-        design.error(name, "is required (a number to fix it, or {min, max[, scale]})")
+        design.missing(name, "is required (a number to fix it, or {min, max[, scale]})")
     value = design.raw(name)
     if _is_number(value):
         _check_domain(design, name, name, value)
@@ -362,6 +415,7 @@ def _doe_bound(design, name):
     if not isinstance(value, dict):
         design.error(name, "must be a number (fixed) or a table {min, max[, scale]}", value)
     tab = _Table(value, design.key(name), design.source)
+    tab.expect(("value", "min", "max", "scale"))
     if tab.has("value"):
         v = tab.get("value", _is_number, "a finite number")
         tab.finish()
@@ -381,6 +435,7 @@ def _doe_bound(design, name):
 
 
 def _parse_doe(design):
+    design.expect(("kind", "sampler", "n", "seed", "scramble") + PARAMETERS)
     sampler = design.get("sampler", lambda v: v in SAMPLERS, " | ".join(map(repr, SAMPLERS)))
     n = design.get("n", _is_int, "an integer number of points >= 1")
     seed = design.get("seed", lambda v: _is_int(v) and v >= 0, "an integer >= 0", 0)
@@ -458,6 +513,11 @@ class SceneSpec:
     def size(self):
         return math.prod(self.shape)
 
+    @property
+    def exponents(self):
+        """The (alpha, beta) of every material."""
+        return tuple(dict.fromkeys((m.alpha, m.beta) for m in self.materials))
+
 
 #: Damping models of a material and their parameters (``damping = {model = ..., ...}``).
 DAMPING_MODELS = {
@@ -503,8 +563,8 @@ def _either(tab, direct, derived, only_derived):
     if tab.has(direct) or all(tab.has(k) for k in derived):
         return
     missing = [k for k in derived if not tab.has(k)]
-    tab.error(direct, f"is required, or derive it from {', '.join(derived)} "
-                      f"(missing: {', '.join(missing)})")
+    tab.missing(direct, f"is required, or derive it from {', '.join(derived)} "
+                        f"(missing: {', '.join(missing)})")
 
 
 def _scene_damping(tab, law):
@@ -514,6 +574,7 @@ def _scene_damping(tab, law):
     if tab.has("gamma0"):
         return _physical(tab, "gamma0"), ()
     sub = tab.table("damping")
+    sub.expect({"model"}.union(*DAMPING_MODELS.values()))
     model = sub.get("model", lambda v: v in DAMPING_MODELS,
                     " | ".join(map(repr, DAMPING_MODELS)))
     params = {key: _physical(sub, key) for key in DAMPING_MODELS[model]}
@@ -528,6 +589,8 @@ def _scene_damping(tab, law):
 
 
 def _parse_material(tab, name):
+    tab.expect(("law", "alpha", "beta", "m", "k", "gamma0", "floor", "damping")
+               + _MATERIAL_KEYS)
     alpha, beta = _scene_law(tab)
     _either(tab, "m", ("radius", "density"), "density")
     _either(tab, "k", ("radius", "E", "nu"), "floor")
@@ -535,6 +598,7 @@ def _parse_material(tab, name):
     if props["k"] is None and alpha != 1.5:
         tab.error("E", "Hertz stiffness (from radius, E, nu) needs alpha = 1.5", alpha)
     floor = tab.table("floor")
+    floor.expect(("E", "nu"))
     floor_E, floor_nu = _physical(floor, "E", math.inf), _physical(floor, "nu", 0.0)
     floor.finish()
     gamma0, damping = _scene_damping(tab, (alpha, beta))
@@ -551,6 +615,7 @@ def _scene_axis(design, name):
 
 
 def _parse_scene(design):
+    design.expect(("kind", "materials", "v0", "F", "g"))
     mats = design.table("materials", required=True)
     if not mats.data:
         design.error("materials", "must name at least one material ([design.materials.NAME])")
@@ -655,13 +720,48 @@ def _check_field(tab, f, methods):
                   "error_<method>", f)
 
 
-def _parse_outputs(tab):
+def _off_domain(design, method):
+    """Why ``method`` is undefined somewhere on ``design`` (a phrase), or None.
+
+    The domain is the method's :attr:`sweep.registry.Method.models`; a design kind without
+    ``exponents`` counts as sampling them over a range.
+    """
+    models = registry.METHODS[method].models
+    if models is None:
+        return None
+    pairs = getattr(design, "exponents", None)
+    defined = " or ".join(f"({a:g}, {b:g})" for a, b in models)
+    if pairs is None:
+        return (f"method {method!r} is defined for (alpha, beta) = {defined} only, and the "
+                "design samples alpha or beta over a range")
+    off = [(a, b) for a, b in pairs if (a, b) not in models]
+    if not off:
+        return None
+    return (f"method {method!r} is defined for (alpha, beta) = {defined} only, and the "
+            f"design has (alpha, beta) = ({off[0][0]:g}, {off[0][1]:g})")
+
+
+def _check_domains(tab, design, methods, fields):
+    """Refuse a requested method (or error field) undefined somewhere on the design: it
+    would store NaN there."""
+    wanted = [("e", m) for m in methods]
+    wanted += [("fields", f) for f in fields if f.startswith("error_") and f[6:] not in methods]
+    for key, name in wanted:
+        why = _off_domain(design, name.removeprefix("error_"))
+        if why is not None:
+            tab.error(key, f"{why}; leave {name} out or give only those exponents")
+
+
+def _parse_outputs(tab, design):
+    tab.expect(("e", "fields"))
     methods = fields = ()
     all_methods = tuple(registry.METHODS)
     if tab.has("e"):
-        # "all": every method computing e its own way; a composite one is asked for by name.
+        # "all": every method computing e its own way and defined on the whole design; a
+        # composite one is asked for by name.
         methods = _name_list(tab, "e", [m for m in all_methods if m not in
-                                        registry.composites()], "method")
+                                        registry.composites()
+                                        and _off_domain(design, m) is None], "method")
         for m in methods:
             if m not in all_methods:
                 tab.error("e", f"unknown method; expected one of {', '.join(all_methods)}", m)
@@ -674,6 +774,7 @@ def _parse_outputs(tab):
             _check_field(tab, f, methods)
     tab.used.update({"e", "fields"})
     tab.finish()
+    _check_domains(tab, design, methods, fields)
     if not methods and not fields:
         tab.error("e", "nothing to compute: request at least one method in outputs.e or a "
                        "field in outputs.fields", [])
@@ -792,9 +893,7 @@ def loads(text, source=""):
     data = _parse_toml(text, source)
     root = _Table(data, "", source)
     # Unknown top-level keys first: a misspelt table name must not surface as "missing".
-    root.used.update({"title", "description", "design", "outputs", "integrator", "options",
-                      "run"})
-    root.finish()
+    root.expect(("title", "description", "design", "outputs", "integrator", "options", "run"))
     title = root.get("title", lambda v: isinstance(v, str), "a string",
                      Path(source).stem if source else "sweep")
     description = root.get("description", lambda v: isinstance(v, str), "a string", "")
@@ -804,7 +903,7 @@ def loads(text, source=""):
         design.error("kind", f"unknown design kind; expected one of {', '.join(DESIGN_KINDS)}",
                      kind)
     design_spec = DESIGN_KINDS[kind](design)
-    outputs = _parse_outputs(root.table("outputs", required=True))
+    outputs = _parse_outputs(root.table("outputs", required=True), design_spec)
     integrator = _parse_integrator(root.table("integrator"))
     options = _parse_options(root.table("options"))
     run = root.table("run")
@@ -897,3 +996,63 @@ def load(path):
         raise ConfigError(f"{path}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
                           f"{exc.start}); save the configuration as UTF-8") from None
     return loads(text, source=str(path))
+
+
+def from_dict(data: Any, source: str = "") -> Config:
+    """Validate a configuration given as a dict: the tables of the file, as Python values.
+
+    The dict is written as TOML text (:func:`sweep.sweeps.toml_text.dumps`, kept as
+    :attr:`Config.text`) and parsed by :func:`loads`: a dict and the equivalent file give
+    the same configuration, hash and errors.
+
+    Parameters
+    ----------
+    data : mapping
+        E.g. ``{"design": {"kind": "grid", "alpha": 1.5, ...}, "outputs": {...}}``; numpy
+        scalars and arrays are accepted as numbers and lists.
+    source : str, optional
+        Where it came from (prefixes error messages).
+
+    Raises
+    ------
+    ConfigError
+        As :func:`loads`, and for a value TOML cannot hold (e.g. None), naming its key.
+    """
+    try:
+        text = toml_text.dumps(data)
+    except toml_text.TomlValueError as exc:
+        raise ConfigError(f"{source}: {exc}" if source else str(exc)) from None
+    return loads(text, source)
+
+
+def _is_toml_text(text: str) -> bool:
+    """A string is TOML text, not a path, if it spans lines or assigns a key -- unless a
+    file of that name exists."""
+    return ("\n" in text or "=" in text) and not os.path.exists(text)
+
+
+def as_config(config: Any) -> Config:
+    """A validated configuration from a path, TOML text, a dict or a :class:`Config`.
+
+    Parameters
+    ----------
+    config : Config, path-like, str or mapping
+        A :class:`Config` is returned as it is; a ``pathlib.Path`` is read
+        (:func:`load`); a string is TOML text if it has a line break or an ``=`` and names
+        no existing file, a path otherwise; a mapping goes to :func:`from_dict`.
+
+    Raises
+    ------
+    ConfigError
+        Invalid configuration, unreadable file, or an object of another type.
+    """
+    if isinstance(config, Config):
+        return config
+    if isinstance(config, dict) or hasattr(config, "keys"):
+        return from_dict(config)
+    if isinstance(config, str) and _is_toml_text(config):
+        return loads(config)
+    if isinstance(config, (str, os.PathLike)):
+        return load(config)
+    raise ConfigError("a configuration is a path, TOML text, a dict or a "
+                      f"sweep.sweeps.config.Config, got {type(config).__name__}")

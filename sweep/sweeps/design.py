@@ -25,7 +25,7 @@ Every design says how its results are stored (:meth:`Design.layout`, a
 same ``design.kind`` as their parser in :data:`sweep.sweeps.config.DESIGN_KINDS`.
 
 Floor 4: may import :mod:`sweep.sweeps.config`, :mod:`sweep.materials`, :mod:`sweep.model`,
-:mod:`sweep.store` (the layout), numpy and scipy.
+:mod:`sweep.store` (the layout), :mod:`sweep._format`, numpy and scipy.
 """
 from __future__ import annotations
 
@@ -40,6 +40,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from sweep import materials, model, store
+from sweep._format import count
 from sweep.sweeps.config import (PARAMETERS, ConfigError, DoESpec, GridSpec, MaterialSpec,
                                  SceneSpec)
 
@@ -152,7 +153,7 @@ class Design(abc.ABC):
 
     def describe(self):
         """One line for humans and the dataset's attributes."""
-        return f"{self.kind} design of {self.size} points"
+        return f"{self.kind} design of {count(self.size, 'point')}"
 
     def layout(self) -> store.Layout:
         """How the results are stored: grid axes as coordinates, or the four parameters as
@@ -191,7 +192,7 @@ class GridDesign(Design):
 
     def describe(self):
         sizes = " x ".join(f"{n}[{s}]" for n, s in zip(self.dims, self.shape))
-        return f"grid design {sizes} = {self.size} points"
+        return f"grid design {sizes} = {count(self.size, 'point')}"
 
 
 class DoEDesign(Design):
@@ -294,7 +295,8 @@ class DoEDesign(Design):
             else:
                 axes.append(f"{b.name} in [{b.lo:g}, {b.hi:g}]"
                             + (" (log)" if b.scale == "log" else ""))
-        return (f"{self.spec.sampler} design of {self.size} points, seed {self.spec.seed}: "
+        return (f"{self.spec.sampler} design of {count(self.size, 'point')}, "
+                f"seed {self.spec.seed}: "
                 + ", ".join(axes))
 
 
@@ -430,7 +432,7 @@ class SceneDesign(Design):
                 f"v0[{self.shape[1]}] in [{self._v0.min():g}, {self._v0.max():g}] m/s "
                 f"({spacing['v0']}) x "
                 f"F[{self.shape[2]}] in [{self._F.min():g}, {self._F.max():g}] N, "
-                f"g = {self.spec.g:g} m/s^2 = {self.size} points")
+                f"g = {self.spec.g:g} m/s^2 = {count(self.size, 'point')}")
 
 
 def _make_engine(cls, d, seed, **kw):

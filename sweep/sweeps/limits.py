@@ -3,7 +3,8 @@
 Owns the numbers behind the refusals of :mod:`sweep.sweeps.config` (configuration size and
 nesting, grid axis length) and of the preflight (:mod:`sweep.sweeps.preflight`: points,
 output size, chunk count, free disk), the Dask connection timeout and the calibration
-budget of the time estimate. The command line exposes the run limits as options
+budget of the time estimate, and how often a run off a terminal says how far it is. The
+command line exposes the run limits as options
 (``--max-points``, ``--max-size``, ``--force``, ``--scheduler-timeout``); everything else
 reads them from here.
 
@@ -15,6 +16,7 @@ __all__ = [
     "CONFIG_MAX_BYTES", "CONFIG_MAX_DEPTH", "GRID_AXIS_MAX_POINTS", "MAX_POINTS",
     "MAX_OUTPUT_BYTES", "MAX_CHUNKS", "CHUNK_FILE_OVERHEAD", "DISK_FULL_MARGIN",
     "SCHEDULER_TIMEOUT_S", "CALIBRATION_SECONDS", "CALIBRATION_MAX_POINTS",
+    "PROGRESS_INTERVAL_S",
 ]
 
 #: Largest configuration file read [bytes]. A configuration is a few hundred bytes; even a
@@ -52,3 +54,8 @@ SCHEDULER_TIMEOUT_S = 10.0
 CALIBRATION_SECONDS = 0.3
 #: Most points computed by that calibration.
 CALIBRATION_MAX_POINTS = 2 ** 16
+
+#: Seconds between two progress lines of a run whose stderr is not a terminal (batch jobs,
+#: CI logs; ``--progress-interval``): often enough to see a run move, rarely enough to keep
+#: a day-long run's log short (~8,600 lines).
+PROGRESS_INTERVAL_S = 10.0

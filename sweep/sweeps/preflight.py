@@ -1,16 +1,18 @@
 """Preflight of a run: what it will cost, known before anything is computed or written.
 
 Owns :class:`Preflight` (points, chunks, output size, free disk needed and available), the
-checks of a design against the run limits (:class:`Limits`, :meth:`Preflight.refusal`)
-and against the free disk (:meth:`Preflight.disk_refusal`), and :func:`estimate_rate`, the
+checks of a design against the run limits (:class:`Limits`, :meth:`Preflight.refusal`),
+against the free disk (:meth:`Preflight.disk_refusal`) or, for an in-memory run, the
+machine's memory (:meth:`Preflight.memory_refusal`), and :func:`estimate_rate`, the
 points per second a run can expect: the last run of the same configuration into the same
 output if there is one, else a short calibration on sample points of the design.
 
 Everything here is computed from the layout and the stored variables' dtypes, never by
 allocating the design: a 10^12-point design is described (and refused) in microseconds.
 
-Floor 4: may import numpy, :mod:`sweep.store` (dtypes, existing outputs) and
-:mod:`sweep.sweeps.limits`; the computation to calibrate is passed in.
+Floor 4: may import numpy, :mod:`sweep.store` (dtypes, existing outputs),
+:mod:`sweep.sweeps.limits` and :mod:`sweep._format` (whose :func:`format_bytes` and
+:func:`format_duration` it re-exports); the computation to calibrate is passed in.
 """
 from __future__ import annotations
 
@@ -25,10 +27,11 @@ from typing import Any
 import numpy as np
 
 from sweep import store
+from sweep._format import count, format_bytes, format_duration
 from sweep.sweeps import limits
 
-__all__ = ["Limits", "Preflight", "preflight", "free_disk", "estimate_rate", "calibrate",
-           "format_bytes", "format_duration"]
+__all__ = ["Limits", "Preflight", "preflight", "free_disk", "physical_memory",
+           "estimate_rate", "calibrate", "format_bytes", "format_duration"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -50,37 +53,14 @@ class Limits:
     max_chunks: int = limits.MAX_CHUNKS
 
 
-def format_bytes(n: float) -> str:
-    """``1234567`` -> ``"1.23 MB"`` (decimal units)."""
-    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
-        if abs(n) < 1000 or unit == "PB":
-            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.3g} {unit}"
-        n /= 1000
-    raise AssertionError("unreachable")  # pragma: no cover
-
-
-def format_duration(seconds: float) -> str:
-    """``4000`` -> ``"1 h 7 min"``; days and years for absurd designs."""
-    if not np.isfinite(seconds):
-        return "unknown"
-    if seconds < 60:
-        return f"{seconds:.2g} s"
-    minutes = seconds / 60
-    if minutes < 60:
-        return f"{minutes:.0f} min"
-    hours = minutes / 60
-    if hours < 48:
-        return f"{int(hours)} h {int(minutes % 60)} min"
-    days = hours / 24
-    return f"{days:.3g} days" if days < 730 else f"{days / 365.25:.3g} years"
-
-
-def free_disk(directory: str | os.PathLike) -> int | None:
+def free_disk(directory: str | os.PathLike | None) -> int | None:
     """Free space available to this user where ``directory`` is or would be [bytes].
 
     The nearest existing ancestor is measured (the output's directory may not exist yet);
-    None if none can be.
+    None if none can be, or for no directory (an in-memory run).
     """
+    if directory is None:
+        return None
     path = Path(directory).absolute()
     for candidate in (path, *path.parents):
         try:
@@ -104,8 +84,8 @@ class Preflight:
         Bytes per point of per-point coordinates (scattered designs).
     axes_bytes : int
         Bytes of the grid's coordinate axes.
-    directory : Path
-        Where the output, its lock and its partial state go.
+    directory : Path or None
+        Where the output, its lock and its partial state go; None for an in-memory run.
     """
 
     n_points: int
@@ -114,7 +94,7 @@ class Preflight:
     value_bytes: int
     coord_bytes: int
     axes_bytes: int
-    directory: Path
+    directory: Path | None
 
     @property
     def output_bytes(self) -> int:
@@ -141,7 +121,8 @@ class Preflight:
                     f"of {format_bytes(lim.max_bytes)} (--max-size); store fewer variables "
                     "or pass --force to run it")
         if self.n_chunks > lim.max_chunks:
-            return (f"{self.n_chunks:,} chunks of {self.chunk_size:,} points are above the "
+            return (f"{count(self.n_chunks, 'chunk')} of "
+                    f"{count(self.chunk_size, 'point')} are above the "
                     f"limit of {lim.max_chunks:,} chunks; use a larger --chunk-size or pass "
                     "--force")
         return None
@@ -163,12 +144,21 @@ class Preflight:
                 f"output), {format_bytes(free + saved)} available; free some space, choose "
                 "another -o, or pass --force (compression usually needs less)")
 
+    def memory_refusal(self) -> str | None:
+        """Why an in-memory run (``sweep.run`` without ``out=``) refuses this design, or
+        None: its dataset, uncompressed, would not fit in this machine's memory."""
+        memory = physical_memory()
+        if memory is None or self.output_bytes <= memory:
+            return None
+        return (f"the dataset needs up to {format_bytes(self.output_bytes)} in memory, more "
+                f"than this machine's {format_bytes(memory)}; give out= to write it to a "
+                "file chunk by chunk, or pass force=True")
+
     def lines(self) -> list[str]:
         """Human-readable description, one item per line."""
         free = free_disk(self.directory)
-        chunks = "chunk" if self.n_chunks == 1 else "chunks"
         return [
-            f"points: {self.n_points:,} in {self.n_chunks:,} {chunks} of <= "
+            f"points: {self.n_points:,} in {count(self.n_chunks, 'chunk')} of <= "
             f"{self.chunk_size:,}",
             f"output: <= {format_bytes(self.output_bytes)} uncompressed",
             f"disk: needs <= {format_bytes(self.disk_needed)} in {self.directory} (chunk "
@@ -178,7 +168,7 @@ class Preflight:
 
 
 def preflight(layout: store.Layout, variables: Sequence[str], chunk_size: int,
-              output: str | os.PathLike) -> Preflight:
+              output: str | os.PathLike | None) -> Preflight:
     """The :class:`Preflight` of a run (nothing is allocated).
 
     Parameters
@@ -189,8 +179,8 @@ def preflight(layout: store.Layout, variables: Sequence[str], chunk_size: int,
         Stored variables (dtypes from :func:`sweep.store.variable_spec`).
     chunk_size : int
         Points per chunk, >= 1.
-    output : path-like
-        The output file.
+    output : path-like or None
+        The output file; None for an in-memory run (no disk is used).
 
     Returns
     -------
@@ -202,7 +192,15 @@ def preflight(layout: store.Layout, variables: Sequence[str], chunk_size: int,
     axes_bytes = 8 * sum(len(a) for a in layout.axes.values())
     return Preflight(n_points=n, chunk_size=chunk_size, n_chunks=-(-n // chunk_size),
                      value_bytes=value_bytes, coord_bytes=coord_bytes, axes_bytes=axes_bytes,
-                     directory=Path(output).absolute().parent)
+                     directory=None if output is None else Path(output).absolute().parent)
+
+
+def physical_memory() -> int | None:
+    """This machine's physical memory [bytes], or None where the system does not say."""
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, OSError, ValueError):  # pragma: no cover - e.g. Windows
+        return None
 
 
 def _sample(design: Any, n: int) -> tuple:
@@ -280,4 +278,4 @@ def estimate_rate(design: Any, compute: Callable[..., Any], output: str | os.Pat
         if rate > 0:
             return rate, f"last run of {output}"
     rate, n = calibrate(design, compute)
-    return rate, f"calibration on {n:,} points"
+    return rate, f"calibration on {count(n, 'point')}"

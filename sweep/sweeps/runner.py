@@ -42,10 +42,15 @@ kernels, design, saving, writing) and ``points_per_second`` = points / ``kernel_
 On a Dask cluster the kernels load on the workers: no warm-up runs, no ``compile_time_s``
 is written, and kernel times include the workers' first loads.
 
+In memory (:func:`run_in_memory`, behind ``sweep.run``): the same driver streams the chunks
+into a :class:`sweep.store.MemoryWriter` instead of a netCDF file; there is no output path,
+lock, partial directory, resume or commit, and the dataset is returned.
+
 Floor 4: may import :mod:`sweep.api`, :mod:`sweep.registry`, :mod:`sweep.store`,
 :mod:`sweep.sweeps.config`, :mod:`sweep.sweeps.design`, :mod:`sweep.sweeps.limits`,
-:mod:`sweep.sweeps.preflight` and :mod:`sweep._version` (and, lazily, tqdm, Dask and numba's
-thread settings); nothing of the reports or the command line.
+:mod:`sweep.sweeps.preflight`, :mod:`sweep.sweeps.progress`, :mod:`sweep._format` and
+:mod:`sweep._version` (and, lazily, Dask and numba's thread settings); nothing of the
+reports or the command line.
 """
 from __future__ import annotations
 
@@ -73,14 +78,16 @@ from typing import Any
 import numpy as np
 
 from sweep import api, registry, store
+from sweep._format import count, rate
 from sweep._version import __version__
 from sweep.sweeps import config as _config
 from sweep.sweeps import design as _design
 from sweep.sweeps import limits as _limits
 from sweep.sweeps import preflight as _preflight_mod
+from sweep.sweeps import progress as _progress_mod
 
-__all__ = ["ComputePlan", "compute_chunk", "run", "RunResult", "RunError", "default_output",
-           "source_sha256", "preflight", "estimate_rate"]
+__all__ = ["ComputePlan", "compute_chunk", "run", "run_in_memory", "RunResult", "RunError",
+           "default_output", "source_sha256", "preflight", "estimate_rate"]
 
 
 # --------------------------------------------------------------------------- computing
@@ -183,7 +190,8 @@ class RunResult:
 
     Attributes
     ----------
-    output : Path
+    output : Path or None
+        The file written; None for an in-memory run (:func:`run_in_memory`).
     n_points : int
         Size of the design.
     computed_points : int
@@ -213,7 +221,7 @@ class RunResult:
         warm-up ran, see the module docstring).
     """
 
-    output: Path
+    output: Path | None
     n_points: int
     computed_points: int = 0
     wall_seconds: float = 0.0
@@ -250,10 +258,19 @@ def default_output(cfg: _config.Config) -> Path:
     Returns
     -------
     Path
-        ``sweep.nc`` for a configuration without a source file.
+
+    Raises
+    ------
+    RunError
+        For a configuration without a source file (given as text or a dict): a file name
+        made up for it (a ``sweep.nc`` in whatever the current directory is) would be a
+        file the caller never asked for.
     """
-    stem = Path(cfg.source).stem if cfg.source else "sweep"
-    return Path(stem + ".nc")
+    if not cfg.source:
+        raise RunError("this configuration was not read from a file, so no output name "
+                       "follows from it: give the output file (output=, -o), or run it "
+                       "in memory with sweep.run(config)")
+    return Path(Path(cfg.source).stem + ".nc")
 
 
 def _version(dist):
@@ -332,7 +349,12 @@ def _scheduler_address(scheduler):
 
 
 def _command_line(job, scheduler):
-    """The ``sweep run`` command that makes this file, with the defaults resolved."""
+    """The ``sweep run`` command that makes this file, with the defaults resolved; for an
+    in-memory run, the ``sweep.run`` call."""
+    if job.output is None:
+        config = repr(job.cfg.source) if job.cfg.source else "<configuration, see sweep_config>"
+        where = f", scheduler={_scheduler_address(scheduler)!r}" if scheduler is not None else ""
+        return f"sweep.run({config}, chunk_size={job.chunk_size}{where})"
     config = (shlex.quote(job.cfg.source) if job.cfg.source
               else "<configuration text, see sweep_config>")
     words = ["-o", str(job.output), "--chunk-size", str(job.chunk_size)]
@@ -346,7 +368,8 @@ def _provenance_attrs(job, scheduler, now):
     chunks are computed. ``now``: ISO 8601 time of the run's start."""
     command = _command_line(job, scheduler)
     if scheduler is None:
-        executor = "local: chunks in turn, each on every numba thread of this process"
+        executor = ("local: chunks in turn, each on every numba thread of this process"
+                    + ("" if job.output is not None else ", assembled in memory"))
     else:
         executor = f"dask distributed, scheduler {_scheduler_address(scheduler)}"
     return {"history": f"{now}: {command}", "sweep_command": command, "executor": executor}
@@ -361,14 +384,6 @@ def _thread_attrs():
     except ValueError:  # raised until a parallel kernel has run in this process
         layer = "none (no parallel kernel ran)"
     return {"numba_num_threads": numba.get_num_threads(), "numba_threading_layer": layer}
-
-
-def _progress(total, initial, quiet, desc):
-    from tqdm.auto import tqdm
-
-    disable = quiet or not sys.stderr.isatty()
-    return tqdm(total=total, initial=initial, unit="pt", unit_scale=True, desc=desc,
-                disable=disable, dynamic_ncols=True, smoothing=0.1)
 
 
 def _local_executor(plan, tasks):
@@ -483,12 +498,18 @@ class _Job:
     design: Any
     plan: ComputePlan
     layout: store.Layout
-    output: Path
+    output: Path | None  # None: an in-memory run
     chunk_size: int
     log: Callable[[str], None]
     result: RunResult
     chunks: Any = ()
     pre: Any = None
+    progress_interval: float | None = None
+
+    @property
+    def label(self) -> str:
+        """What progress and messages call the run: the output's name, or "in memory"."""
+        return self.output.name if self.output is not None else "in memory"
 
 
 @dataclasses.dataclass
@@ -530,14 +551,18 @@ def _existing_ancestor(path):
     return next((p for p in (path, *path.parents) if p.exists()), Path("/"))
 
 
-def _prepare(cfg, output, chunk_size, quiet, log):
-    """Step 1: load the configuration, resolve and check the output, build the design."""
+def _prepare(cfg, output, chunk_size, quiet, log, in_memory=False):
+    """Step 1: load the configuration, resolve and check the output (none for an
+    in-memory run), build the design."""
     if not isinstance(cfg, _config.Config):
         cfg = _config.load(cfg)
     if log is None:
         log = (lambda msg: None) if quiet else (lambda msg: print(msg, file=sys.stderr))
-    output = Path(output) if output is not None else default_output(cfg)
-    _check_output_path(output)
+    if in_memory:
+        output = None
+    else:
+        output = Path(output) if output is not None else default_output(cfg)
+        _check_output_path(output)
     if chunk_size is None:
         chunk_size = cfg.chunk_size
     elif isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
@@ -615,8 +640,8 @@ def _drop_untrusted(job):
     n = store.remove_untrusted(job.output)
     if n is not None:
         job.result.discarded_chunks = n
-        job.log(f"removed {store.partial_dir(job.output)}: {n} chunk files without a valid "
-                "manifest (left over by an interrupted run or clean-up; never resumed)")
+        job.log(f"removed {store.partial_dir(job.output)}: {count(n, 'chunk file')} without a "
+                "valid manifest (left over by an interrupted run or clean-up; never resumed)")
 
 
 def _existing_output_is_current(job, restart):
@@ -679,8 +704,9 @@ def _report(job, t_start):
     """Step 11: time the call and say what it did."""
     result = job.result
     result.wall_seconds = time.perf_counter() - t_start
-    job.log(f"wrote {job.output}: {job.design.size} points ({result.computed_points} "
-            f"computed) in {result.wall_seconds:.1f} s, {result.points_per_second:.4g} pt/s")
+    what = f"wrote {job.output}" if job.output is not None else "computed in memory"
+    job.log(f"{what}: {count(job.design.size, 'point')} ({result.computed_points:,} "
+            f"computed) in {result.wall_seconds:.1f} s, {rate(result.points_per_second)}")
     return result
 
 
@@ -738,19 +764,20 @@ def _tasks(job, partial, done, behind, totals, bar) -> Iterator[tuple]:
 def _log_plan(job, done):
     pre = job.pre
     free = _preflight_mod.free_disk(pre.directory)
-    job.log(f"sweep: {job.design.describe()}; {len(job.chunks)} chunks of <= "
-            f"{job.chunk_size} points; output <= "
+    job.log(f"sweep: {job.design.describe()}; {count(len(job.chunks), 'chunk')} of <= "
+            f"{count(job.chunk_size, 'point')}; "
+            f"{'output' if job.output is not None else 'in memory'} <= "
             f"{_preflight_mod.format_bytes(pre.output_bytes)} uncompressed"
             + (f", {_preflight_mod.format_bytes(free)} free disk" if free is not None else "")
-            + (f"; resuming, {len(done)} chunks already done" if done else ""))
+            + (f"; resuming, {count(len(done), 'chunk')} already done" if done else ""))
 
 
 def _log_rejected(job, partial):
     if not job.result.recomputed_chunks:
         return
     why = ", ".join(f"{n} {reason}" for reason, n in sorted(partial.rejected.items()))
-    job.log(f"resume: recomputed {job.result.recomputed_chunks} saved chunks that failed "
-            f"verification ({why})")
+    job.log(f"resume: recomputed {count(job.result.recomputed_chunks, 'saved chunk')} that "
+            f"failed verification ({why})")
 
 
 def _stream_chunks(job, partial, done, behind, quiet, client):
@@ -763,7 +790,8 @@ def _stream_chunks(job, partial, done, behind, quiet, client):
     _log_plan(job, done)
     totals, result = _Totals(), job.result
     last = time.perf_counter()
-    with _progress(job.design.size, done_points, quiet, job.output.name) as bar:
+    with _progress_mod.progress(job.design.size, done_points, quiet=quiet, desc=job.label,
+                                interval=job.progress_interval) as bar:
         tasks = _tasks(job, partial, done, behind, totals, bar)
         executor = (_local_executor(job.plan, tasks) if client is None
                     else _dask_executor(job.plan, tasks, client))
@@ -865,8 +893,8 @@ def _write_failure(job, partial, exc):
     """The one-line error for a failure while chunks are saved or written, or None to
     let ``exc`` through. Finished chunks are kept either way."""
     saved = len(partial.finished())
-    keep = (f"the {saved} finished chunks are kept in {partial.dir}: rerun the same "
-            "command to resume")
+    keep = (f"the {count(saved, 'finished chunk')} {'is' if saved == 1 else 'are'} kept in "
+            f"{partial.dir}: rerun the same command to resume")
     if _disk_is_full(exc, partial.dir):
         free = _preflight_mod.free_disk(partial.dir)
         return RunError(f"no space left on the device of {partial.dir} "
@@ -895,7 +923,7 @@ def _write_output(job, partial, done, quiet, client, scheduler):
         _finish(job, partial, writer, behind, totals, client)
     except KeyboardInterrupt:
         n_saved = len(partial.finished())
-        job.log(f"\ninterrupted: {n_saved} of {len(job.chunks)} chunks are saved in "
+        job.log(f"\ninterrupted: {n_saved:,} of {count(len(job.chunks), 'chunk')} saved in "
                 f"{partial.dir}; rerun the same command to resume")
         raise
     except Exception as exc:
@@ -935,7 +963,8 @@ def run(cfg: _config.Config | str | Path, output: str | Path | None = None, *,
         restart: bool = False, quiet: bool = False, chunk_size: int | None = None,
         scheduler: Any = None, log: Callable[[str], None] | None = None,
         force: bool = False, limits: _preflight_mod.Limits | None = None,
-        scheduler_timeout: float | None = None) -> RunResult:
+        scheduler_timeout: float | None = None,
+        progress_interval: float | None = None) -> RunResult:
     """Run a sweep and write its dataset.
 
     Parameters
@@ -964,6 +993,9 @@ def run(cfg: _config.Config | str | Path, output: str | Path | None = None, *,
     scheduler_timeout : float, optional
         Seconds to wait for the scheduler to answer [s] (default
         :data:`sweep.sweeps.limits.SCHEDULER_TIMEOUT_S`).
+    progress_interval : float, optional
+        Seconds between two progress lines when stderr is not a terminal [s] (default
+        :data:`sweep.sweeps.limits.PROGRESS_INTERVAL_S`; see :mod:`sweep.sweeps.progress`).
 
     Returns
     -------
@@ -983,6 +1015,7 @@ def run(cfg: _config.Config | str | Path, output: str | Path | None = None, *,
     """
     t_start = time.perf_counter()
     job = _prepare(cfg, output, chunk_size, quiet, log)
+    job.progress_interval = progress_interval
     _preflight(job, force, limits)
     lock = _take_lock(job)
     try:
@@ -992,3 +1025,88 @@ def run(cfg: _config.Config | str | Path, output: str | Path | None = None, *,
     if job.result.up_to_date:
         return job.result
     return _report(job, t_start)
+
+
+# --------------------------------------------------------------------------- in memory
+
+class _NoPartial:
+    """The partial state of an in-memory run: there is none (nothing is saved, so nothing
+    resumes), and the chunk streaming step needs no other case."""
+
+    rejected: dict = {}
+
+    def save_chunk(self, *args) -> None:
+        pass
+
+
+def _compute_in_memory(job, quiet, client, scheduler):
+    """Steps 5 to 10 of an in-memory run: the chunks streamed into a
+    :class:`sweep.store.MemoryWriter`; returns it, closed."""
+    job.chunks = _design.Chunks(job.design.size, job.chunk_size)
+    attrs = _static_attrs(job.cfg, job.design, job.plan, job.chunk_size)
+    attrs.update(_provenance_attrs(job, scheduler, attrs["date_created"]))
+    writer = store.MemoryWriter(job.layout, job.plan.variables, attrs)
+    # Copying a chunk into memory is cheap: no background writer.
+    behind = _WriteBehind(writer, depth=0)
+    try:
+        job.result.compile_seconds = _warm_up(job, set(), client)
+        totals = _stream_chunks(job, _NoPartial(), set(), behind, quiet, client)
+    finally:
+        behind.shutdown()
+    job.result.chunks = len(job.chunks)
+    writer.set_attrs(_timing_attrs(job, totals, client))
+    writer.close()
+    return writer
+
+
+def run_in_memory(cfg: _config.Config | str | Path, *, quiet: bool = False,
+                  chunk_size: int | None = None, scheduler: Any = None,
+                  log: Callable[[str], None] | None = None, force: bool = False,
+                  limits: _preflight_mod.Limits | None = None,
+                  scheduler_timeout: float | None = None,
+                  progress_interval: float | None = None) -> tuple[Any, RunResult]:
+    """Run a sweep in memory: the dataset :func:`run` would write, as an xarray.Dataset.
+
+    The same driver as :func:`run` (kernels, chunks, warm-up, timing, attributes,
+    progress, local or Dask executor) with a :class:`sweep.store.MemoryWriter` in place of
+    the netCDF file: no file, no lock, no partial directory and therefore no resume (an
+    interrupted in-memory run starts again from the beginning). Memory is the size of the
+    dataset (plus one variable while it is decoded).
+
+    Parameters
+    ----------
+    cfg : Config or path-like
+        As for :func:`run`.
+    quiet, chunk_size, scheduler, log, limits, scheduler_timeout, progress_interval
+        As for :func:`run`.
+    force : bool
+        Run although the design is above ``limits`` or larger than this machine's memory.
+
+    Returns
+    -------
+    (xarray.Dataset, RunResult)
+        The dataset, identical to the file :func:`run` writes read back by
+        ``xarray.open_dataset`` but for :data:`VOLATILE_ATTRS`; the result's ``output`` is
+        None.
+
+    Raises
+    ------
+    sweep.sweeps.config.ConfigError, RunError
+        As :func:`run`; also a design too large for this machine's memory (a RunError).
+    """
+    t_start = time.perf_counter()
+    job = _prepare(cfg, None, chunk_size, quiet, log, in_memory=True)
+    job.progress_interval = progress_interval
+    _preflight(job, force, limits)
+    refusal = job.pre.memory_refusal()
+    if refusal is not None:
+        if not force:
+            raise RunError(refusal)
+        job.log(f"force: {refusal.split(';')[0]}")
+    client, own = _connect(scheduler, scheduler_timeout)
+    try:
+        writer = _compute_in_memory(job, quiet, client, scheduler)
+    finally:
+        if own:
+            client.close()
+    return writer.dataset(), _report(job, t_start)
