@@ -146,10 +146,11 @@ def kernel_cache() -> Iterator[None]:
 
 #: Compilation flags of every kernel. numpy's error model: a division by zero gives inf or
 #: NaN (which the kernels test for and turn into a status) instead of raising
-#: ZeroDivisionError out of a parallel loop and losing the whole call. No fastmath: the
-#: finiteness tests must hold, and IEEE semantics keep results bit-identical whatever the
-#: thread count, block or order.
-FLAGS = {"error_model": "numpy"}
+#: ZeroDivisionError out of a parallel loop and losing the whole call. nogil: a serial
+#: kernel called from a Python thread (Dask workers, a GUI) lets the others run. No
+#: fastmath: the finiteness tests must hold, and IEEE semantics keep results bit-identical
+#: whatever the thread count, block or order.
+FLAGS = {"error_model": "numpy", "nogil": True}
 
 
 def jit(**options):
