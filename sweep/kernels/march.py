@@ -44,10 +44,11 @@ from sweep.kernels.creep import (ROUNDING_V, creep_constants, energy_margin, jum
                                  near_slow_branch, never_leaves)
 from sweep.kernels.events import ON_U, ON_V, locate
 from sweep.kernels.stepper import N_DENSE, N_STAGES, dense_coefficients, local_error, rk_step
-from sweep.kernels.stepsize import damping_step, first_guess, local_policy, policy
+from sweep.kernels.stepsize import (StepPolicy, damping_step, first_guess, local_policy,
+                                    policy)
 
-__all__ = ["Ending", "march", "march_point", "EXIT", "TROUGH", "SPENT", "REST", "BUDGET",
-           "CREEP", "NEGLIGIBLE", "scratch"]
+__all__ = ["Ending", "State", "march", "march_point", "start", "finish_step", "EXIT",
+           "TROUGH", "SPENT", "REST", "BUDGET", "CREEP", "NEGLIGIBLE", "GOING", "scratch"]
 
 # Relative roundoff in the dissipated energy q (a sum of positive terms): the energy rule
 # waits until q exceeds the initial energy 1/2 by more than it.
@@ -222,6 +223,8 @@ def _cannot_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
 
 #: How a march ended (the geometry); :func:`sweep.kernels.outcome.decide` reads it.
 EXIT, TROUGH, SPENT, REST, BUDGET, CREEP, NEGLIGIBLE = range(7)
+#: Not ended (the march goes on).
+GOING = -1
 
 
 class Ending(NamedTuple):
@@ -288,89 +291,161 @@ def _jumped(c, k, u, t, K):
     return u, w, r, v, t + dt, 0.5 * v * v + potential(u, c)
 
 
+class State(NamedTuple):
+    """The march of one point between two steps (what a lane of the multi-point driver
+    holds; :func:`march` is the same sequence for one point)."""
+
+    t: float
+    u: float
+    w: float
+    r: float          # dissipation integral (q = gamma v u^beta + r)
+    rc: float         # its Kahan compensation
+    v: float
+    e0: float         # energy when q was last zero (1/2, or H at a creep jump)
+    q_stuck: float    # the energy rule's threshold on q
+    phase: int
+    u_max: float
+    n: int
+    lw: float         # summed local error estimates of w
+    lq: float         # ... and of the dissipation integral
+    p: StepPolicy
+    energy_in_phase1: bool
+
+
+@jit(inline="always")
+def _with_policy(st, p):
+    # numba's named tuples have no _replace: each update builds the tuple.
+    return State(st.t, st.u, st.w, st.r, st.rc, st.v, st.e0, st.q_stuck, st.phase, st.u_max,
+                 st.n, st.lw, st.lq, p, st.energy_in_phase1)
+
+
+@jit(inline="always")
+def _with_umax(st, u_max):
+    return State(st.t, st.u, st.w, st.r, st.rc, st.v, st.e0, st.q_stuck, st.phase, u_max,
+                 st.n, st.lw, st.lq, st.p, st.energy_in_phase1)
+
+
+@jit(inline="always")
+def _after_jump(st, u, w, r, v, t, e0):
+    return State(t, u, w, r, 0.0, v, e0, e0 * (1.0 + _ENERGY_ROUNDOFF), st.phase, st.u_max,
+                 st.n, st.lw, st.lq, st.p, st.energy_in_phase1)
+
+
+@jit(inline="always")
+def start(c, p, K):
+    """The state at tau = 0 (u = 0, w = v = 1) with K[0] = f there."""
+    fu, fw, fr = rhs(0.0, 1.0, c)
+    _set_first_stage(K, fu, fw, fr)
+    overdamped = c.gtilde > 0.0 and damping_ratio(c.alpha, c.beta, c.gamma, c.gtilde) >= 1.0
+    return State(0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.5, 0.5 * (1.0 + _ENERGY_ROUNDOFF), 1, np.nan,
+                 0, 0.0, 0.0, p, overdamped)
+
+
+@jit(inline="always")
+def _ending(kind, st, t, u, v, q, n):
+    return Ending(kind, t, u, v, st.e0 - q, st.u_max, n, st.lw, st.lq)
+
+
+@jit(inline="always")
+def _events(st, c, k, u1, w1, v1, s, n, K, K2, Q):
+    """Events of Algorithm 1 inside the step just taken: ``(phase, u_max, n, Ending)``
+    with the Ending's kind GOING unless the impact ended in the step."""
+    phase, u_max = st.phase, st.u_max
+    none = Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
+    if not _may_have_event(phase, u1, v1, w1, k.ubar):
+        return phase, u_max, n, none
+    u, w, r, t = st.u, st.w, st.r, st.t
+    dense_coefficients(K, s, Q)
+    th0 = 0.0
+    if phase == 1 and _compressed(v1, w1):
+        th0, u_max = _compression_end(u, w, r, s, Q, K, K2, c)
+        n += 1
+        phase = 2
+    if phase == 2 and k.ubar > 0.0 and u1 < k.ubar:
+        th0 = locate(ON_U, k.ubar, u, w, Q, c, th0, 1.0)
+        phase = 3
+    # With g~ = 0 (u-bar = 0) the return to u-bar in phase 2 is the detachment itself.
+    exiting = (phase == 3 or (phase == 2 and k.ubar == 0.0)) and u1 <= 0.0
+    th_exit = 1.0
+    if not exiting and phase == 3 and v1 >= 0.0:
+        th_exit, u_min, q_min = _trough(u, w, r, s, th0, Q, K, K2, c)
+        n += 1
+        if u_min > 0.0:
+            return phase, u_max, n, Ending(TROUGH, t + th_exit * s, u_min, 0.0, st.e0 - q_min,
+                                           u_max, n, st.lw, st.lq)
+        exiting = True
+    if exiting:
+        d, q_f, v_f, used = _detach(u, w, r, s, th0, th_exit, Q, K, K2, c)
+        return phase, u_max, n, Ending(EXIT, t + d, 0.0, v_f, st.e0 - q_f, u_max, n + used,
+                                       st.lw, st.lq)
+    return phase, u_max, n, none
+
+
+@jit(inline="always")
+def _rules(st, c, k, K, rest_tol, e_tol):
+    """The stopping rules and the creep jump at a step's end: ``(state, Ending)``."""
+    u, w, r, v, p = st.u, st.w, st.r, st.v, st.p
+    # The creep rules apply inside R (v >= -gamma u^beta / 2), which phase 1 always is:
+    # there only under heavy damping, where the bead may creep into a well for ever.
+    if (st.phase > 1 or p.capped) and v + w >= 0.0:
+        if st.phase > 1 and _overdamped_here(u, c):
+            # Creeping back: steps follow the local time scales, which grow as u
+            # falls (docs/creep.md, section 7).
+            st = _with_policy(st, local_policy(p))
+        kind = _creep_rule(c, k, u, w, r, v, st.e0, e_tol, st.phase)
+        if kind == BUDGET:
+            u, w, r, v, t, e0 = _jumped(c, k, u, st.t, K)
+            st = _after_jump(st, u, w, r, v, t, e0)
+        elif kind >= 0:
+            return st, _ending(kind, st, st.t, u, v, dissipated(u, v, r, c), st.n)
+    # At g~ = 0 the rest box is no proof of rest (a bead in it may still leave with
+    # e up to its energy, ~1e-8): the creep rules decide there.
+    if c.gtilde > 0.0 and _at_rest(st.u, st.v, k.ubar, rest_tol):
+        if st.phase == 1:
+            st = _with_umax(st, max(st.u, k.ubar))
+        return st, _ending(REST, st, st.t, st.u, st.v, dissipated(st.u, st.v, st.r, c), st.n)
+    if _cannot_return(st.u, st.w, st.r, st.v, st.phase, st.energy_in_phase1, st.q_stuck, c):
+        return st, _ending(SPENT, st, st.t, st.u, st.v, dissipated(st.u, st.v, st.r, c), st.n)
+    return st, Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
+
+
+@jit(inline="always")
+def finish_step(st, c, k, u1, w1, dr, s, n, K, K2, Q, rest_tol, e_tol):
+    """Everything after a step's Runge-Kutta stages (``K`` holds them, ``u1, w1`` the end
+    state, ``dr`` the increment of r, ``n`` the steps counter): the events located in the
+    step, the state moved on, then the stopping rules. Returns ``(state, Ending)``, the
+    Ending's kind GOING while the march goes on."""
+    # The last (FSAL) stage is f at the step's end: its u' is the velocity v1, no power.
+    v1 = K[N_STAGES - 1, 0]
+    _, ew, eq = local_error(K, s)
+    lw, lq = st.lw + abs(ew), st.lq + abs(eq)
+    phase, u_max, n, end = _events(st, c, k, u1, w1, v1, s, n, K, K2, Q)
+    if end.kind != GOING:
+        return st, Ending(end.kind, end.t, end.u, end.v, end.h, end.u_max, end.n, lw, lq)
+    # Compensated (Kahan) sum: q's rounding stays at eps instead of growing with the
+    # number of steps, which matters where e = sqrt(1 - 2 q) is small.
+    y = dr - st.rc
+    r1 = st.r + y
+    st = State(st.t + s, u1, w1, r1, (r1 - st.r) - y, v1, st.e0, st.q_stuck, phase, u_max, n,
+               lw, lq, st.p, st.energy_in_phase1)
+    _set_first_stage(K, K[N_STAGES - 1, 0], K[N_STAGES - 1, 1], K[N_STAGES - 1, 2])
+    return _rules(st, c, k, K, rest_tol, e_tol)
+
+
 @jit()
 def march(c, p, rest_tol, max_steps, K, K2, Q, e_tol=0.0):
     """The three phases of Algorithm 1 for the law ``c`` with the step policy ``p``: the
     geometry of the impact, up to its :class:`Ending`. ``e_tol``: energy below which a
     heavily damped bead's possible rebound is negligible (NEGLIGIBLE)."""
-    ubar = equilibrium(c.alpha, c.gtilde)
     k = creep_constants(c)
-    energy_in_phase1 = c.gtilde > 0.0 and damping_ratio(c.alpha, c.beta, c.gamma, c.gtilde) >= 1.0
-    q_stuck = 0.5 * (1.0 + _ENERGY_ROUNDOFF)
-    t = u = r = rc = 0.0
-    w = v = 1.0
-    e0 = 0.5
-    fu, fw, fr = rhs(u, w, c)
-    _set_first_stage(K, fu, fw, fr)
-    phase = 1
-    u_max = np.nan
-    n = 0
-    lw = lq = 0.0
+    st = start(c, p, K)
     while True:
-        if n >= max_steps:
-            return Ending(BUDGET, t, u, v, e0 - dissipated(u, v, r, c), u_max, n, lw, lq)
-        u1, w1, dr, s, n = _advance(u, w, v, p, K, c, n, max_steps)
-        # Compensated (Kahan) sum: q's rounding stays at eps instead of growing with the
-        # number of steps, which matters where e = sqrt(1 - 2 q) is small.
-        y = dr - rc
-        r1 = r + y
-        rc_next = (r1 - r) - y
-        # The last (FSAL) stage is f at the step's end: its u' is the velocity v1, no power.
-        v1 = K[N_STAGES - 1, 0]
-        _, ew, eq = local_error(K, s)
-        lw += abs(ew)
-        lq += abs(eq)
-        if _may_have_event(phase, u1, v1, w1, ubar):
-            dense_coefficients(K, s, Q)
-            th0 = 0.0
-            if phase == 1 and _compressed(v1, w1):
-                th0, u_max = _compression_end(u, w, r, s, Q, K, K2, c)
-                n += 1
-                phase = 2
-            if phase == 2 and ubar > 0.0 and u1 < ubar:
-                th0 = locate(ON_U, ubar, u, w, Q, c, th0, 1.0)
-                phase = 3
-            # With g~ = 0 (u-bar = 0) the return to u-bar in phase 2 is the detachment itself.
-            exiting = (phase == 3 or (phase == 2 and ubar == 0.0)) and u1 <= 0.0
-            th_exit = 1.0
-            if not exiting and phase == 3 and v1 >= 0.0:
-                th_exit, u_min, q_min = _trough(u, w, r, s, th0, Q, K, K2, c)
-                n += 1
-                if u_min > 0.0:
-                    return Ending(TROUGH, t + th_exit * s, u_min, 0.0, e0 - q_min, u_max, n, lw, lq)
-                exiting = True
-            if exiting:
-                d, q_f, v_f, used = _detach(u, w, r, s, th0, th_exit, Q, K, K2, c)
-                return Ending(EXIT, t + d, 0.0, v_f, e0 - q_f, u_max, n + used, lw, lq)
-        t += s
-        u = u1
-        w = w1
-        r = r1
-        rc = rc_next
-        v = v1
-        _set_first_stage(K, K[N_STAGES - 1, 0], K[N_STAGES - 1, 1], K[N_STAGES - 1, 2])
-        # The creep rules apply inside R (v >= -gamma u^beta / 2), which phase 1 always is:
-        # there only under heavy damping, where the bead may creep into a well for ever.
-        if (phase > 1 or p.capped) and v + w >= 0.0:
-            if phase > 1 and _overdamped_here(u, c):
-                # Creeping back: steps follow the local time scales, which grow as u
-                # falls (docs/creep.md, section 7).
-                p = local_policy(p)
-            kind = _creep_rule(c, k, u, w, r, v, e0, e_tol, phase)
-            if kind == BUDGET:
-                u, w, r, v, t, e0 = _jumped(c, k, u, t, K)
-                rc = 0.0
-                q_stuck = e0 * (1.0 + _ENERGY_ROUNDOFF)
-            elif kind >= 0:
-                return Ending(kind, t, u, v, e0 - dissipated(u, v, r, c), u_max, n, lw, lq)
-        # At g~ = 0 the rest box is no proof of rest (a bead in it may still leave with
-        # e up to its energy, ~1e-8): the creep rules decide there.
-        if c.gtilde > 0.0 and _at_rest(u, v, ubar, rest_tol):
-            if phase == 1:
-                u_max = max(u, ubar)
-            return Ending(REST, t, u, v, e0 - dissipated(u, v, r, c), u_max, n, lw, lq)
-        if _cannot_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
-            return Ending(SPENT, t, u, v, e0 - dissipated(u, v, r, c), u_max, n, lw, lq)
+        if st.n >= max_steps:
+            return _ending(BUDGET, st, st.t, st.u, st.v, dissipated(st.u, st.v, st.r, c), st.n)
+        u1, w1, dr, s, n = _advance(st.u, st.w, st.v, st.p, K, c, st.n, max_steps)
+        st, end = finish_step(st, c, k, u1, w1, dr, s, n, K, K2, Q, rest_tol, e_tol)
+        if end.kind != GOING:
+            return end
 
 
 @jit()
