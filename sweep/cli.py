@@ -11,7 +11,8 @@
               [--force] [--no-estimate]
     sweep report accuracy DATASET.nc [--out DIR]
     sweep report paper [--out DIR] [--n-gamma N] [--n-crit N] [--steps S] [--models ...]
-    sweep report speed [--out DIR] [--n-points N] [--n-scipy N] [--n-check N] [--model M]
+    sweep report speed [--out DIR] [--n-points N] [--n-peer N] [--n-check N] [--model M]
+              [--tols TOL ...] [--peers P ...] [--n-vector N] [--n-closed N] [--repeat R]
     sweep report error-model [--out FILE.npz] [--sub N] [--n-validate N]
     sweep export SCENE.nc (--csv | --npz) [-o OUT] [--variable V] [--no-check]
     sweep example bounce [--out DIR] [--cor direct|lookup] [--table SCENE.nc]
@@ -254,11 +255,14 @@ def _cmd_paper(args):
 
 
 def _cmd_speed(args):
-    from sweep.reports.speed import speed_report
+    from sweep.reports.speed import PEER_SETTINGS, TOLS, speed_report
 
-    res = speed_report(args.out, n_points=args.n_points, n_scipy=args.n_scipy,
-                       n_check=args.n_check, model=args.model, seed=args.seed,
-                       progress=not args.quiet)
+    peers = [p for p in PEER_SETTINGS if p[0] in args.peers]
+    res = speed_report(args.out, n_points=args.n_points, n_peer=args.n_peer,
+                       n_check=args.n_check, n_vector=args.n_vector, n_closed=args.n_closed,
+                       tols=args.tols or TOLS, ref_steps=args.ref_steps, ref_tol=args.ref_tol,
+                       peer_settings=peers, model=args.model, seed=args.seed,
+                       repeat=args.repeat, progress=not args.quiet)
     print(res["markdown"])
     return _print_files(res, f"files in {res['out']}:")
 
@@ -300,18 +304,36 @@ def _add_paper_command(sub, models):
 
 def _add_speed_command(sub, models):
     p = sub.add_parser(
-        "speed", help="work-precision: speed against error, scipy as the peer",
-        description="Time the integrator at several resolutions, every approximation and "
-                    "scipy's solve_ivp (RK45, DOP853, one point at a time) on one common "
-                    "point set; plot time per point against max abs error.")
+        "speed", help="work-precision: error against time per point, beside scipy and peers",
+        description="Time the engine at several accuracy targets tol, every closed form, "
+                    "and the peers a user would otherwise pick (scipy solve_ivp RK45, "
+                    "DOP853, LSODA, Radau one point at a time; numbalsoda and diffrax when "
+                    "installed) on one common point set against one reference; plot max abs "
+                    "error against CPU time per point and against points/s, and report the "
+                    "time ratio at equal error. The defaults take a few minutes.")
     p.add_argument("--out", metavar="DIR", default="speed_report",
                    help="output directory (default: ./speed_report)")
-    p.add_argument("--n-points", type=int, default=20000, metavar="N",
+    p.add_argument("--n-points", type=_positive_int, default=20000, metavar="N",
                    help="common point set size (default 20000)")
-    p.add_argument("--n-scipy", type=int, default=100, metavar="N",
-                   help="points of the subset given to scipy (default 100)")
-    p.add_argument("--n-check", type=int, default=100, metavar="N",
+    p.add_argument("--n-peer", "--n-scipy", dest="n_peer", type=_positive_int, default=100,
+                   metavar="N", help="points of the subset given to the peers (default 100)")
+    p.add_argument("--n-vector", type=_positive_int, default=2000, metavar="N",
+                   help="points given to the vectorised peer, diffrax (default 2000)")
+    p.add_argument("--n-check", type=_positive_int, default=100, metavar="N",
                    help="points on which the reference is cross-checked with DOP853")
+    p.add_argument("--n-closed", type=_positive_int, default=2_000_000, metavar="N",
+                   help="largest tiled set the closed forms are timed on (default 2000000)")
+    p.add_argument("--tols", type=_positive_float, nargs="+", metavar="TOL",
+                   help="the engine's accuracy targets (default 1e-4 ... 1e-11)")
+    p.add_argument("--peers", nargs="+", choices=("scipy", "numbalsoda", "diffrax"),
+                   default=["scipy", "numbalsoda", "diffrax"],
+                   help="peers to time (default: all; the optional ones when installed)")
+    p.add_argument("--ref-steps", type=_positive_float, default=1024.0,
+                   help="resolution of the reference (default 1024)")
+    p.add_argument("--ref-tol", type=_positive_float, default=1e-13,
+                   help="refinement target of the reference (default 1e-13)")
+    p.add_argument("--repeat", type=_positive_int, default=3,
+                   help="engine timings are the best of this many (default 3)")
     p.add_argument("--model", choices=models, default="kk",
                    help="contact model of the point set (default kk)")
     p.add_argument("--seed", type=int, default=0,

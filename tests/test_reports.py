@@ -23,7 +23,9 @@ from sweep.reports import paper_values as pv
 from sweep.reports.accuracy import REGIONS, accuracy_report, load_errors
 from sweep.reports.paper import (compute_sweeps, gamma_c_24, paper_gamma_grid, paper_report,
                                  table_rows)
-from sweep.reports.speed import PLAIN_DOP853, scipy_user_cor, speed_report, time_at_error
+from sweep.reports import peers, speed
+from sweep.reports.speed import (PLAIN_DOP853, error_bound, scipy_user_cor, speed_report,
+                                 time_at_error)
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -359,31 +361,82 @@ def test_scipy_user_cor_agrees_with_integrator():
     assert scipy_user_cor(1.5, 1.5, 0.1, 2.0, "RK45", 1e-6) == 0.0
 
 
-def test_speed_report_small(tmp_path):
-    res = speed_report(tmp_path / "s", n_points=300, steps_list=(12, 24), ref_steps=128,
-                       n_check=2, n_scipy=3, repeat=1,
-                       scipy_settings=(("RK45", (1e-4,)), ("DOP853", (1e-6, 1e-9))))
+def test_error_bound_says_which_side():
+    err = [1e-3, 1e-6, 1e-9]
+    assert error_bound(err, 1e-7) == ""
+    assert error_bound(err, 1e-12) == ">"          # the peer never got there: lower bound
+    assert error_bound(err, 1e-1) == "<"           # already more accurate: upper bound
+    assert error_bound([math.nan], 1e-3) == "?"
+
+
+def test_serial_numba_restores_the_thread_count():
+    import numba
+
+    before = numba.get_num_threads()
+    with speed.serial_numba():
+        assert numba.get_num_threads() == 1
+    assert numba.get_num_threads() == before
+
+
+_SMALL_PEERS = (("scipy", "RK45", (1e-4,)), ("scipy", "DOP853", (1e-6, 1e-9)),
+                ("numbalsoda", "DOP853", (1e-8,)), ("diffrax", "Tsit5", (1e-8,)))
+
+
+def test_speed_report_small(tmp_path, monkeypatch):
+    # the optional peers as if absent: the report must skip them with a note
+    monkeypatch.setattr(speed, "available_peers", lambda: {
+        "numbalsoda": "not installed (test)", "diffrax": "not installed (test)"})
+    res = speed_report(tmp_path / "s", n_points=300, tols=(1e-4, 1e-8), steps_list=(24,),
+                       ref_steps=128, n_check=2, n_peer=3, n_closed=3000, min_call_s=1e9,
+                       repeat=1, peer_settings=_SMALL_PEERS)
     out = tmp_path / "s"
     for name in ("speed.md", "speed.csv", "speed_headline.csv"):
         assert (out / name).exists(), name
     assert _is_png(out / "work_precision.png")
     rows = res["rows"]
-    integ = {r["setting"]: r for r in rows if r["kind"] == "integrator"}
-    assert set(integ) == {"steps=12", "steps=24", f"steps={sweep.DEFAULT_STEPS:g} (default)"}
-    assert integ["steps=24"]["max_abs_error"] < integ["steps=12"]["max_abs_error"]
-    assert {r["setting"] for r in rows if r["kind"] == "approximation"} == set(
-        sweep.api.APPROXIMATIONS)
-    assert sum(r["kind"] == "scipy" for r in rows) == 3
+    engine = {r["setting"]: r for r in rows if r["kind"] == "engine"}
+    assert set(engine) == {f"default (steps={sweep.DEFAULT_STEPS:g})", "tol=0.0001",
+                           "tol=1e-08", "steps=24"}
+    assert engine["tol=1e-08"]["max_abs_error"] < engine["tol=0.0001"]["max_abs_error"]
+    assert engine["tol=1e-08"]["max_abs_error"] <= 1e-8        # the knob's promise
+    approx = {r["setting"]: r for r in rows if r["kind"] == "approximation"}
+    assert set(approx) == set(sweep.api.APPROXIMATIONS)
+    # the closed forms are timed on the set tiled to n_closed points (min_call_s = 1e9)
+    assert all(r["points"] == 3000 for r in approx.values())
+    assert sum(r["kind"] == "peer" for r in rows) == 3
+    assert len(res["skipped"]) == 2 and "numbalsoda DOP853: skipped" in res["skipped"][0]
     for r in rows:
-        assert r["seconds_per_point"] > 0
         assert r["points_per_second"] == pytest.approx(1 / r["seconds_per_point"])
-        assert r["cpu_seconds_per_point"] > 0
+        assert r["cpu_seconds_per_point"] > 0 and r["failed"] == 0
     assert res["reference"]["crosscheck_max_diff"] < 1e-6
     assert res["reference"]["crosscheck"] == PLAIN_DOP853     # the package's own peer
-    assert len(res["headline"]) == 4
-    assert all(h["ratio"] > 0 and h["ratio_cpu"] > 0 for h in res["headline"])
+    assert len(res["headline"]) == 4 * 2                       # engine settings x peers
+    assert all(h["ratio_cpu"] > 0 and h["ratio_throughput"] > 0 for h in res["headline"])
     md = (out / "speed.md").read_text()
-    assert "numba threads" in md and "scipy" in md
+    assert "numba thread" in md and "solve_ivp DOP853" in md and "skipped" in md
+
+
+def test_peer_failures_count_as_error_one():
+    bench = speed._Bench(1.5, 1.5, np.zeros(3), np.zeros(3), np.arange(3),
+                         np.array([0.5, 0.5, np.nan]))
+    timing = {"points": 3, "threads": 1, "cpu_seconds_per_point": 1.0,
+              "points_per_second": 1.0}
+    row = bench.row("peer", "p", "s", timing, None, np.array([0.5, np.nan, np.nan]))
+    assert row["failed"] == 1 and row["subset_max_abs_error"] == 1.0
+
+
+@pytest.mark.parametrize("tool", ["numbalsoda", "diffrax"])
+def test_optional_peer_agrees_with_the_integrator(tool):
+    pytest.importorskip(tool)
+    a = np.array([1.5, 1.5, 1.5, 2.0])
+    b = np.array([1.5, 1.0, 2.5, 1.2])
+    g = np.array([0.01, 0.05, 0.001, 0.02])
+    G = np.array([0.1, 0.0, 2.0, 0.5])
+    ref = sweep.integrate(a, b, g, G).e
+    e = peers.peer_cors(tool, {"rtol": 1e-10}, a, b, g, G)
+    np.testing.assert_allclose(e, ref, atol=1e-7)
+    assert sweep.integrate(1.5, 1.5, 0.1, 2.0).sticks         # a stick: e = 0 for the peer
+    assert peers.peer_cors(tool, {"rtol": 1e-8}, [1.5], [1.5], [0.1], [2.0])[0] == 0.0
 
 
 # --------------------------------------------------------------------------- CLI, imports

@@ -13,8 +13,10 @@ arguments live in :mod:`sweep.cli`):
     The report's Tables 2-5 recomputed next to the published numbers, and its Figures 8-11
     (g~_c against gamma). See :mod:`sweep.reports.paper`.
 :func:`speed_report` (``sweep report speed [--out DIR]``)
-    Work-precision: points per second against the error for the integrator at several
-    resolutions, every approximation and scipy's ``solve_ivp`` as a peer. See
+    Work-precision: max abs error against CPU time per point and against points/s for the
+    integrator at several accuracy targets ``tol``, every approximation, and the peers a
+    user would otherwise pick (scipy's ``solve_ivp``; numbalsoda and diffrax when
+    installed, :mod:`sweep.reports.peers`), with the time ratio at equal error. See
     :mod:`sweep.reports.speed`.
 :func:`error_model_report` (``sweep report error-model [--out FILE.npz]``)
     The error bounds of the closed forms over (alpha, beta, gamma, g~) that ``method =

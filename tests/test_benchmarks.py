@@ -1,0 +1,154 @@
+"""benchmarks/run_all.py: one JSON line per figure of issue 10, well formed.
+
+Runs the script in a subprocess on tiny sizes (``--quick``) and checks the structure of what
+it prints and the pass/fail logic; never a timing (the values of a quick run mean nothing).
+"""
+import importlib.util
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPT = ROOT / "benchmarks" / "run_all.py"
+
+
+def _load_run_all():
+    spec = importlib.util.spec_from_file_location("run_all", SCRIPT)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+run_all = _load_run_all()
+
+
+def _run(*args, cache):
+    res = subprocess.run([sys.executable, str(SCRIPT), "--quick", "--cache-dir", str(cache),
+                          *args], cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert res.returncode == 0, res.stderr[-3000:]
+    return [json.loads(x) for x in res.stdout.splitlines() if x.strip()], res.stderr
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    cache = tmp_path_factory.mktemp("ref-cache")
+    lines, err = _run(cache=cache)
+    return lines, err, cache
+
+
+@pytest.mark.slow
+def test_every_figure_once_in_order(quick_run):
+    lines, _, _ = quick_run
+    assert [x["name"] for x in lines] == list(run_all.TARGETS)
+
+
+@pytest.mark.slow
+def test_line_structure(quick_run):
+    lines, _, _ = quick_run
+    for x in lines:
+        unit, target, sense, _ = run_all.TARGETS[x["name"]]
+        assert x["unit"] == unit and x["target"] == f"{sense} {target:g}"
+        assert isinstance(x["value"], float) and math.isfinite(x["value"]) and x["value"] > 0
+        assert isinstance(x["pass"], bool) and x["quick"] is True
+        assert isinstance(x["n"], int) and x["n"] >= 1
+        assert isinstance(x["threads"], int) and x["threads"] >= 1
+        assert {"cpu", "numba_threads", "threading_layer"} <= set(x["machine"])
+        assert x["load_average"] >= 0
+        ok = x["value"] >= target if sense == ">=" else x["value"] <= target
+        if "error_target" in x:
+            ok = ok and x["max_abs_error"] <= x["error_target"]
+        assert x["pass"] == ok, x["name"]
+
+
+@pytest.mark.slow
+def test_law_lines_carry_error_figures(quick_run):
+    lines, _, _ = quick_run
+    laws = [x for x in lines if x["name"] in run_all.GROUPS["laws"]]
+    assert len(laws) == 6
+    for x in laws:
+        assert x["n"] == run_all.QUICK["n"]
+        assert x["error_points"] + x["error_undecided"] == run_all.QUICK["check"]
+        assert x["error_points"] > 0 and 0 <= x["max_abs_error"] < 1e-3
+        assert x["error_target"] == x["tol"] and x["compile_s"] >= 0
+    sobol = {x["name"]: x for x in lines}["sobol_1m_threads_2v1"]
+    assert sobol["value"] == pytest.approx(sobol["points_per_second_2"]
+                                           / sobol["points_per_second_1"])
+    fresh = {x["name"]: x for x in lines}["startup_compile_fresh"]
+    assert {"numeric scalar", "numeric array", "auto array", "integrate general"} <= set(
+        fresh["first_calls_s"])
+
+
+@pytest.mark.slow
+def test_reference_is_cached_and_reused(quick_run):
+    _, err, cache = quick_run
+    assert "DOP853 reference" in err
+    assert len(list(Path(cache).glob("dop853_*.npz"))) == 1
+    lines, err2 = _run("--only", "kk_tol1e-8", cache=cache)
+    assert [x["name"] for x in lines] == ["kk_tol1e-8"]
+    assert "DOP853 reference" not in err2          # every point came from the cache
+
+
+def test_reference_cache_by_value(tmp_path, monkeypatch):
+    calls = []
+
+    def fake(p):
+        calls.append(p)
+        return p[2] + p[3]
+
+    # The pool forks this process: count the calls through the cache file instead.
+    monkeypatch.setattr(run_all, "_dop853_e", fake)
+    monkeypatch.setattr(run_all.concurrent.futures, "ProcessPoolExecutor",
+                        _SerialPool)
+    pts = np.array([[1.5, 1.5, 0.1, 1.0], [1.5, 1.5, 0.2, 2.0]])
+    np.testing.assert_array_equal(run_all.reference_e(pts, tmp_path), [1.1, 2.2])
+    np.testing.assert_array_equal(run_all.reference_e(pts[::-1], tmp_path), [2.2, 1.1])
+    assert len(calls) == 2                          # the second call read the cache
+    more = np.vstack([pts, [[2.0, 1.0, 0.3, 3.0]]])
+    np.testing.assert_array_equal(run_all.reference_e(more, tmp_path), [1.1, 2.2, 3.3])
+    assert len(calls) == 3
+
+
+class _SerialPool:
+    def __init__(self, *args):
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def map(self, fn, items, chunksize=1):
+        return map(fn, items)
+
+
+def test_pass_needs_the_target_and_the_error():
+    line = run_all.line("kk_tol1e-8", 2e6, {}, 10, 2, error_ok=True)
+    assert line["pass"] and "error_ok" not in line
+    assert not run_all.line("kk_tol1e-8", 2e6, {}, 10, 2, error_ok=False)["pass"]
+    assert not run_all.line("kk_tol1e-8", 9e5, {}, 10, 2)["pass"]
+    assert run_all.line("startup_compile_fresh", 14.0, {}, 1, 2)["pass"]
+    assert not run_all.line("startup_compile_fresh", 16.0, {}, 1, 2)["pass"]
+
+
+def test_draw_is_the_core_benchmarks():
+    a, b, g, G = run_all.draw(1000, "kk")
+    rng = np.random.default_rng(0)
+    np.testing.assert_array_equal(g, 10 ** rng.uniform(-4, -0.5, 1000))
+    np.testing.assert_array_equal(G, 10 ** rng.uniform(-3, 1, 1000))
+    assert (a == 1.5).all() and (b == 1.5).all()
+    a, b, g2, G2 = run_all.draw(1000, "general")
+    np.testing.assert_array_equal(g2, g)             # same gamma, g~ draws
+    assert 1 <= a.min() and a.max() <= 3 and 1 <= b.min() and b.max() <= 3
+    assert run_all.LAWS["shc"] == (1.5, 2.5) and run_all.LAWS["hertz"] == (1.5, 1.0)
+
+
+def test_unknown_figure_is_refused():
+    with pytest.raises(SystemExit):
+        run_all._selected(["nonsense"])
+    assert run_all._selected(["gil", "kk_tol1e-8"]) == ["kk_tol1e-8", "gil_release"]
