@@ -2,3 +2,6 @@
 
 Imports nothing from ``sweep`` above :mod:`sweep.registry`.
 """
+from sweep.kernels._parallel import preload_tbb
+
+preload_tbb()

@@ -19,7 +19,8 @@ from sweep.kernels._jit import jit
 from sweep.kernels.contact import rhs
 from sweep.kernels.tableau import DORMAND_PRINCE_54
 
-__all__ = ["rk_step", "local_error", "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
+__all__ = ["rk_step", "rk_stage", "rk_combine", "local_error", "dense_coefficients",
+           "dense_eval", "N_STAGES", "N_DENSE"]
 
 _T = DORMAND_PRINCE_54
 _A = np.ascontiguousarray(_T.A)
@@ -30,28 +31,31 @@ N_STAGES = _A.shape[0]
 N_DENSE = _P.shape[1]
 
 
-@jit()
-def rk_step(u, w, h, K, c):
-    """Advance ``(u, w)`` by one step ``h`` of the contact law ``c`` (a ``Law``); returns
-    ``(u_new, w_new, dr)`` with ``dr`` the step's increment of the dissipation integral r
-    (returned alone so that the caller can sum it with compensation).
+@jit(inline="always")
+def rk_stage(i, u, w, h, K, c):
+    """Stage ``i >= 1`` of a step ``h`` from ``(u, w)``: fills ``K[i]`` from ``K[0..i-1]``.
 
-    ``K[0]`` must hold ``f(u, w)`` on entry (first-same-as-last); on exit ``K`` holds all
-    stages, ``K[-1] = f(u_new, w_new)`` for the FSAL tableau.
+    Written once for the scalar step (:func:`rk_step`) and the multi-point driver
+    (:mod:`sweep.kernels.lanes`), which runs stage i of several points in turn so that
+    their independent chains of dependent operations overlap in the processor.
     """
-    for i in range(1, N_STAGES):
-        du = 0.0
-        dw = 0.0
-        dq = 0.0
-        for j in range(i):
-            a = _A[i, j]
-            du += a * K[j, 0]
-            dw += a * K[j, 1]
-            dq += a * K[j, 2]
-        fu, fw, fq = rhs(u + h * du, w + h * dw, c)
-        K[i, 0] = fu
-        K[i, 1] = fw
-        K[i, 2] = fq
+    du = 0.0
+    dw = 0.0
+    for j in range(i):
+        a = _A[i, j]
+        du += a * K[j, 0]
+        dw += a * K[j, 1]
+    fu, fw, fq = rhs(u + h * du, w + h * dw, c)
+    K[i, 0] = fu
+    K[i, 1] = fw
+    K[i, 2] = fq
+
+
+@jit(inline="always")
+def rk_combine(u, w, h, K):
+    """The step's result from its stages: ``(u_new, w_new, dr)``, with ``dr`` the increment
+    of the dissipation integral r (returned alone so that the caller can sum it with
+    compensation)."""
     du = 0.0
     dw = 0.0
     dq = 0.0
@@ -61,6 +65,19 @@ def rk_step(u, w, h, K, c):
         dw += b * K[j, 1]
         dq += b * K[j, 2]
     return u + h * du, w + h * dw, h * dq
+
+
+@jit()
+def rk_step(u, w, h, K, c):
+    """Advance ``(u, w)`` by one step ``h`` of the contact law ``c`` (a ``Law``); returns
+    ``(u_new, w_new, dr)`` (:func:`rk_combine`).
+
+    ``K[0]`` must hold ``f(u, w)`` on entry (first-same-as-last); on exit ``K`` holds all
+    stages, ``K[-1] = f(u_new, w_new)`` for the FSAL tableau.
+    """
+    for i in range(1, N_STAGES):
+        rk_stage(i, u, w, h, K, c)
+    return rk_combine(u, w, h, K)
 
 
 @jit(inline="always")
