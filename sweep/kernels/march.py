@@ -123,16 +123,6 @@ def _stationary_u(u, v, c, upward):
     return u
 
 
-@jit(inline="always")
-def _stationary_u(u, v, c, upward):
-    """u at the vertex of the local parabola through (u, v): removes a residual v at an
-    extremum of u (``upward``: a minimum, where the acceleration is positive)."""
-    acc = accel(u, v, c)
-    if (acc > 0.0) if upward else (acc < 0.0):
-        return u - 0.5 * v * v / acc
-    return u
-
-
 # --------------------------------------------------------------------------- one step
 
 @jit(inline="always")
@@ -350,10 +340,18 @@ def _ending(kind, st, t, u, v, q, n):
 def _events(st, c, k, u1, w1, v1, s, n, K, K2, Q):
     """Events of Algorithm 1 inside the step just taken: ``(phase, u_max, n, Ending)``
     with the Ending's kind GOING unless the impact ended in the step."""
+    if not _may_have_event(st.phase, u1, v1, w1, k.ubar):
+        return st.phase, st.u_max, n, Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
+    return _located(st, c, k, u1, w1, v1, s, n, K, K2, Q)
+
+
+# Not inlined: a few steps per point have events; inlining this rare path into every
+# driver multiplied the compile time (150 s against 20 s) for no speed.
+@jit()
+def _located(st, c, k, u1, w1, v1, s, n, K, K2, Q):
+    """:func:`_events` once the step's ends say an event may lie inside it."""
     phase, u_max = st.phase, st.u_max
     none = Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
-    if not _may_have_event(phase, u1, v1, w1, k.ubar):
-        return phase, u_max, n, none
     u, w, r, t = st.u, st.w, st.r, st.t
     dense_coefficients(K, s, Q)
     th0 = 0.0
@@ -381,23 +379,34 @@ def _events(st, c, k, u1, w1, v1, s, n, K, K2, Q):
     return phase, u_max, n, none
 
 
+@jit()
+def _creep_rules(st, c, k, K, e_tol):
+    """The creep rules inside R: ``(state, Ending)``, the state moved by a creep jump, the
+    Ending's kind GOING unless the march ends here. (Not inlined: see :func:`_located`.)"""
+    u, w, r, v, p = st.u, st.w, st.r, st.v, st.p
+    if st.phase > 1 and _overdamped_here(u, c):
+        # Creeping back: steps follow the local time scales, which grow as u
+        # falls (docs/creep.md, section 7).
+        st = _with_policy(st, local_policy(p))
+    kind = _creep_rule(c, k, u, w, r, v, st.e0, e_tol, st.phase)
+    if kind == BUDGET:
+        u, w, r, v, t, e0 = _jumped(c, k, u, st.t, K)
+        return _after_jump(st, u, w, r, v, t, e0), Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0,
+                                                          0.0, 0.0)
+    if kind >= 0:
+        return st, _ending(kind, st, st.t, u, v, dissipated(u, v, r, c), st.n)
+    return st, Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
+
+
 @jit(inline="always")
 def _rules(st, c, k, K, rest_tol, e_tol):
     """The stopping rules and the creep jump at a step's end: ``(state, Ending)``."""
-    u, w, r, v, p = st.u, st.w, st.r, st.v, st.p
     # The creep rules apply inside R (v >= -gamma u^beta / 2), which phase 1 always is:
     # there only under heavy damping, where the bead may creep into a well for ever.
-    if (st.phase > 1 or p.capped) and v + w >= 0.0:
-        if st.phase > 1 and _overdamped_here(u, c):
-            # Creeping back: steps follow the local time scales, which grow as u
-            # falls (docs/creep.md, section 7).
-            st = _with_policy(st, local_policy(p))
-        kind = _creep_rule(c, k, u, w, r, v, st.e0, e_tol, st.phase)
-        if kind == BUDGET:
-            u, w, r, v, t, e0 = _jumped(c, k, u, st.t, K)
-            st = _after_jump(st, u, w, r, v, t, e0)
-        elif kind >= 0:
-            return st, _ending(kind, st, st.t, u, v, dissipated(u, v, r, c), st.n)
+    if (st.phase > 1 or st.p.capped) and st.v + st.w >= 0.0:
+        st, end = _creep_rules(st, c, k, K, e_tol)
+        if end.kind != GOING:
+            return st, end
     # At g~ = 0 the rest box is no proof of rest (a bead in it may still leave with
     # e up to its energy, ~1e-8): the creep rules decide there.
     if c.gtilde > 0.0 and _at_rest(st.u, st.v, k.ubar, rest_tol):

@@ -35,9 +35,8 @@ N_DENSE = _P.shape[1]
 def rk_stage(i, u, w, h, K, c):
     """Stage ``i >= 1`` of a step ``h`` from ``(u, w)``: fills ``K[i]`` from ``K[0..i-1]``.
 
-    Written once for the scalar step (:func:`rk_step`) and the multi-point driver
-    (:mod:`sweep.kernels.lanes`), which runs stage i of several points in turn so that
-    their independent chains of dependent operations overlap in the processor.
+    Apart from :func:`rk_combine` so that a retaken step (the damping cap) and any driver
+    that interleaves stages of several points share the same arithmetic.
     """
     du = 0.0
     dw = 0.0

@@ -1,0 +1,47 @@
+"""How pessimistic is e_err at the first march? The figure behind ``TOL_MARGIN``.
+
+    python benchmarks/tol_margin.py [--n 40000]
+
+For the KK, linear and general-exponent draws of ``benchmarks/run_all.py`` and tol 1e-6,
+1e-8, 1e-10, marches every point at ``tol`` without refinement and compares with the
+integrator at 500 steps and tol 1e-12 (within ~1e-13 of DOP853). Prints, per law and tol:
+the fraction of points the refinement would take (e_err > tol / TOL_MARGIN), the quantiles
+of actual error over e_err, and the largest actual error among the points left unrefined,
+over tol (must stay below 1).
+"""
+import argparse
+
+import numpy as np
+
+import sweep
+from sweep.kernels.integrator import TOL_MARGIN
+
+
+def draws(n, rng):
+    g = 10 ** rng.uniform(-4, -0.5, n)
+    gt = 10 ** rng.uniform(-3, 1, n)
+    yield "kk", np.full(n, 1.5), np.full(n, 1.5), g, gt
+    yield "linear", np.ones(n), np.ones(n), g, gt
+    yield "general", rng.uniform(1, 3, n), rng.uniform(1, 3, n), g, gt
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("--n", type=int, default=40000)
+    n = p.parse_args().n
+    for law, a, b, g, gt in draws(n, np.random.default_rng(0)):
+        ref = sweep.integrate(a, b, g, gt, steps=500, tol=1e-12)
+        for tol in (1e-6, 1e-8, 1e-10):
+            r = sweep.integrate(a, b, g, gt, tol=tol, refine=False)
+            ok = (r.status == 0) & (ref.status == 0)
+            err = np.abs(r.e - ref.e)[ok]
+            ratio = err / np.maximum(r.e_err[ok], 1e-300)
+            kept = r.e_err[ok] <= tol / TOL_MARGIN
+            q50, q99 = np.quantile(ratio, [0.5, 0.99])
+            print(f"{law:8s} tol={tol:.0e}: refined {1 - kept.mean():.3f}, err/e_err median "
+                  f"{q50:.3f} q99 {q99:.3f} max {ratio.max():.3f}; unrefined max err/tol "
+                  f"{err[kept].max() / tol:.2f}")
+
+
+if __name__ == "__main__":
+    main()
