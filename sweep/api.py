@@ -46,9 +46,21 @@ def _result_doc() -> str:
     return "\n".join(lines)
 
 
-IntegrationResult = dataclasses.make_dataclass(
-    "IntegrationResult", [(name, Any) for name in registry.FIELDS], frozen=True,
-    namespace={"__doc__": _result_doc(), "__module__": __name__})
+def _result_class() -> type:
+    return dataclasses.make_dataclass(
+        "IntegrationResult", [(name, Any) for name in registry.FIELDS], frozen=True,
+        namespace={"__doc__": _result_doc(), "__module__": __name__})
+
+
+IntegrationResult = _result_class()
+
+
+def _result_type() -> type:
+    """:class:`IntegrationResult`, rebuilt when a field was registered after import."""
+    global IntegrationResult
+    if tuple(f.name for f in dataclasses.fields(IntegrationResult)) != tuple(registry.FIELDS):
+        IntegrationResult = _result_class()
+    return IntegrationResult
 
 
 def integrator_settings(**options: Any) -> dict[str, Any]:
@@ -122,7 +134,7 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
     if b.scalar:
         res["status"] = Status(res["status"])
         res["n_steps"] = int(res["n_steps"])
-    return IntegrationResult(**res)
+    return _result_type()(**res)
 
 
 def _undefined_raise(m: registry.Method, b: Broadcast) -> None:

@@ -159,7 +159,7 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any,
     -------
     xarray.Dataset
         One variable per field of :class:`sweep.IntegrationResult` (``e``, ``sticks``,
-        ``t_f``, ``u_max``, ``n_steps``, ``status``), with their dtypes, ``long_name`` and
+        ``t_f``, ``u_max``, ``n_steps``, ``status``, ``e_err``), with their dtypes, ``long_name`` and
         ``units`` (``flag_values`` / ``flag_meanings`` for ``status``); dask-backed (lazy,
         one integration per block) if any input is. Global attributes: ``method``
         ("numeric"), ``equation`` and the integrator settings used.
@@ -167,7 +167,7 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any,
     probe = _probe("numeric", options)
     # Names and dtypes come from the function itself, so a new field needs no edit here.
     dtypes = {f.name: np.asarray(getattr(probe, f.name)).dtype
-              for f in dataclasses.fields(api.IntegrationResult)}
+              for f in dataclasses.fields(probe)}
     outs = _apply(_integrate_block, (alpha, beta, gamma, gtilde),
                   {"options": options, "dtypes": dtypes}, list(dtypes.values()))
     outs = outs if isinstance(outs, tuple) else (outs,)

@@ -43,6 +43,11 @@ def test_a_method_added_through_the_registry_alone():
         assert cfg.outputs.methods == ("numeric", "dummy")
         assert cfg.outputs.approximations == ("dummy",)
         assert cfg.method_options("dummy") == {"level": 0.75}
+        ds = sweep.run(cfg)
+        np.testing.assert_array_equal(ds["e_dummy"].values, 0.75)
+        np.testing.assert_allclose(ds["error_dummy"].values,
+                                   0.75 - ds["e_numeric"].values, rtol=0, atol=1e-15)
+        assert ds["e_dummy"].attrs["long_name"] == "coefficient of restitution, dummy"
     with pytest.raises(ValueError, match="dummy"):
         sweep.cor(1.5, 1.5, 0.1, 0.2, method="dummy")
 
@@ -89,3 +94,23 @@ def test_fields_and_integration_result_agree():
         assert np.asarray(value).dtype.kind == f.dtype.kind or isinstance(value, (int, float,
                                                                                   bool))
     assert set(registry.integrator_fields()) == set(registry.FIELDS) - {"e"}
+
+
+def test_a_derived_field_added_through_the_registry_alone():
+    """A field computed from the kernel's fields: one registry entry, no other edit."""
+    f = registry.Field("kinetic_ratio", np.dtype(np.float64), "kinetic energy ratio",
+                       "e squared: rebound over impact kinetic energy", fill_value=np.nan,
+                       derived=lambda fields: fields["e"] ** 2)
+    registry.register_field(f)
+    try:
+        r = sweep.integrate(1.5, 1.5, np.array([0.01, 0.1]), 0.2)
+        np.testing.assert_array_equal(r.kinetic_ratio, r.e ** 2)
+        cfg = config.loads('[design]\nkind = "grid"\nalpha = 1.5\nbeta = 1.5\n'
+                           'gamma = [0.01, 0.1]\ngtilde = 0.2\n[outputs]\ne = ["numeric"]\n'
+                           'fields = ["kinetic_ratio"]\n')
+        ds = sweep.run(cfg)
+        np.testing.assert_array_equal(ds["kinetic_ratio"].values, ds["e_numeric"].values ** 2)
+        assert ds["kinetic_ratio"].attrs["long_name"] == "kinetic energy ratio"
+    finally:
+        registry.unregister_field("kinetic_ratio")
+    assert not hasattr(sweep.integrate(1.5, 1.5, 0.1, 0.2), "kinetic_ratio")
