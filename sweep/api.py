@@ -99,8 +99,9 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
     tol : float, optional
         The largest abs error of e wanted (e.g. 1e-6, 1e-8, 1e-10): the resolution comes from
         the integrator's calibrated error model (:func:`sweep.kernels.stepsize.resolution`)
-        and points whose error estimate ``e_err`` exceeds ``tol / 2`` are checked and
-        refined (``refine``). Without it: ``steps`` and a refinement target of 1e-10.
+        and points whose error estimate ``e_err`` exceeds ``tol`` are checked and refined
+        (``refine``). Without it: ``steps`` and a refinement target of 1e-9
+        (:data:`sweep.kernels.integrator.REFINE_TARGET`).
     steps : float, optional
         Resolution for experts: steps per half period of the stiffest linearised motion
         (default :data:`DEFAULT_STEPS`, or from ``tol``); the error falls like

@@ -167,3 +167,24 @@ def print_table():
 
 if __name__ == "__main__":
     print_table()
+
+
+# Slow creeps at g~ = 0 (alpha, beta > 1, beta < (alpha + 1) / 2 nearly): the single march
+# ends AT_REST / STUCK after 16,000-53,000 steps; a finer check march runs out of the budget.
+SLOW_CREEP = [(2.8621648463128673, 1.963020806443412, 6.524615314367031, 0.0),
+              (3.1943154407189707, 2.251947811781185, 7.527067393989817, 0.0),
+              (1.9194243541990765, 1.5, 10.224917926805368, 0.0),
+              (1.816916862715718, 1.5, 9.914693424842058, 0.0)]
+
+
+@pytest.mark.parametrize("point", SLOW_CREEP)
+def test_refinement_out_of_budget_keeps_the_finished_march(point):
+    """A refinement that runs out of budget must not replace a decided march by the budget's
+    bound (it reported e = 0.026 +- 0.026 where the single march said e = 0 +- 3e-6)."""
+    one = sweep.integrate(*point, refine=False)
+    r = sweep.integrate(*point)
+    assert one.status != Status.BUDGET_EXHAUSTED
+    assert r.status != Status.BUDGET_EXHAUSTED
+    assert r.e_err <= one.e_err
+    # e = 0 within the estimate of the march that was kept.
+    assert abs(r.e - one.e) <= one.e_err
