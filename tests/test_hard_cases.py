@@ -188,3 +188,28 @@ def test_refinement_out_of_budget_keeps_the_finished_march(point):
     assert r.e_err <= one.e_err
     # e = 0 within the estimate of the march that was kept.
     assert abs(r.e - one.e) <= one.e_err
+
+
+def _extreme_draw(n, seed):
+    """Issue 9 item 4's domain: alpha, beta in [1, 10] (a fifth at the report's exponents),
+    gamma = 0 or 10^U(-12, 12), g~ = 0 or 10^U(-300, 300)."""
+    rng = np.random.default_rng(seed)
+    a = np.where(rng.random(n) < 0.2, rng.choice([1.0, 1.5, 2.0, 2.5], n), rng.uniform(1, 10, n))
+    b = np.where(rng.random(n) < 0.2, rng.choice([1.0, 1.5, 2.5], n), rng.uniform(1, 10, n))
+    g = np.where(rng.random(n) < 0.1, 0.0, 10 ** rng.uniform(-12, 12, n))
+    gt = np.where(rng.random(n) < 0.2, 0.0, 10 ** rng.uniform(-300, 300, n))
+    # kappa = alpha + 1 - 2 beta slightly negative with a huge gamma at g~ = 0: the creep's
+    # landing point (~1e-75) underflowed its speed and the march went NaN.
+    extra = np.array([[9.890844236618802, 5.523142417260927, 374863313.42473215, 0.0],
+                      [9.890844236618802, 5.523142417260927, 1e6, 0.0]])
+    return [np.concatenate([x, extra[:, i]]) for i, x in enumerate((a, b, g, gt))]
+
+
+def test_extremes_give_a_number_a_status_and_a_bound():
+    a, b, g, gt = _extreme_draw(600, 11)
+    r = sweep.integrate(a, b, g, gt)
+    e, st, e_err = np.asarray(r.e), np.asarray(r.status), np.asarray(r.e_err)
+    bad = ~(np.isfinite(e) & (e >= 0) & (e <= 1) & np.isfinite(e_err) & (e_err >= 0)
+            & np.isin(st, [Status.OK, Status.STUCK, Status.AT_REST]))
+    assert not bad.any(), [(a[i], b[i], g[i], gt[i], e[i], st[i], e_err[i])
+                           for i in np.flatnonzero(bad)[:5]]

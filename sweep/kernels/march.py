@@ -391,6 +391,12 @@ def _creep_rules(st, c, k, K, e_tol):
     kind = _creep_rule(c, k, u, w, r, v, st.e0, e_tol, st.phase)
     if kind == BUDGET:
         u, w, r, v, t, e0 = _jumped(c, k, u, st.t, K)
+        if not (math.isfinite(t) and v != 0.0):
+            # The landing point is so deep (u_t ~ 1e-75 for kappa ~ -0.16 and gamma ~ 1e6)
+            # that the creep's speed there underflows and its duration overflows: the
+            # energy left, v^2/2 + F(u_t), is below 1e-300 and bounds e.
+            h = e0 if e0 >= 0.0 else 0.0     # NaN where v underflowed to 0 with u^alpha
+            return st, Ending(NEGLIGIBLE, math.inf, u, v, h, st.u_max, st.n, st.lw, st.lq)
         return _after_jump(st, u, w, r, v, t, e0), Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0,
                                                           0.0, 0.0)
     if kind >= 0:
