@@ -82,7 +82,7 @@ def integrator_settings(**options: Any) -> dict[str, Any]:
 def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | None = None,
               steps: float | None = None, rest_tol: float = DEFAULT_REST_TOL,
               max_steps: int | None = None, refine: bool = True,
-              parallel: bool | None = None) -> IntegrationResult:
+              parallel: bool | None = None, device: str = "cpu") -> IntegrationResult:
     """Numerical coefficient of restitution by a fixed-step Runge-Kutta 5(4) march.
 
     Integrates the scaled problem (2) in the Lipschitz form (4) with the three phases of the
@@ -119,15 +119,21 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
     parallel : bool, optional
         Force the parallel (True) or serial (False) kernel; by default parallel unless called
         from a thread where numba's threading layer is unsafe. Results are bit-identical.
+    device : {"cpu", "cuda"}, default "cpu"
+        ``"cuda"``: the same per-point solve on one CUDA GPU (the optional numba-cuda,
+        ``pip install 'sweep[cuda]'``), chunked with transfers overlapped; agrees with the
+        CPU to a few ulp, not bit for bit (:mod:`sweep.kernels.cuda`). Without a usable GPU
+        it raises ``RuntimeError`` saying why.
 
     Returns
     -------
     IntegrationResult
     """
     opts = integrator_settings(tol=tol, steps=steps, rest_tol=rest_tol, max_steps=max_steps,
-                               refine=refine)
+                               refine=refine, device=device)
+    device = opts.pop("device")
     b = broadcast_points(alpha, beta, gamma, gtilde)
-    out = integrate_arrays(*b.flat, settings(**opts), parallel=parallel)
+    out = integrate_arrays(*b.flat, settings(**opts), parallel=parallel, device=device)
     for f in registry.FIELDS.values():
         if f.derived is not None:
             out[f.name] = f.derived(out)

@@ -40,7 +40,7 @@ __all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "
            "valid_points", "check_scalar", "check_array", "register_method",
            "unregister_method", "register_field", "unregister_field", "method",
            "approximations", "composites", "method_fields", "integrator_fields",
-           "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX"]
+           "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX", "DEVICES"]
 
 #: The report every equation number refers to.
 REPORT = ("A. Chatterjee, G. James, B. Brogliato, Approximate analytical coefficient of "
@@ -363,6 +363,9 @@ class Method:
         return np.logical_or.reduce([(a == ma) & (b == mb) for ma, mb in self.models])
 
 
+#: Where the numerical integration can run (the ``device`` option).
+DEVICES = ("cpu", "cuda")
+
 _INTEGRATOR_OPTIONS = (
     Option("tol", None, lambda v: _is_number(v) and v > 0,
            "a number > 0 (the largest abs error of e wanted: the resolution comes from the "
@@ -379,6 +382,9 @@ _INTEGRATOR_OPTIONS = (
     Option("refine", True, lambda v: isinstance(v, (bool, np.bool_)),
            "true or false (check points whose error indicator is above the target against "
            "a companion march and march them again, finer; false: one fixed-step march)"),
+    Option("device", "cpu", lambda v: isinstance(v, str) and v in DEVICES,
+           "\"cpu\" or \"cuda\" (where the integration runs: every CPU core, or one CUDA "
+           "GPU through the optional numba-cuda, pip install 'sweep[cuda]')"),
 )
 #: Largest order n of the Chebyshev-Beta approximation (49) that the kernels evaluate (their
 #: quadrature table, sweep.kernels.special, is built for it).

@@ -242,7 +242,7 @@ def _kernel_serial(blocks, alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps
                status, e_err)
 
 
-def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None):
+def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None, device="cpu"):
     """Run the integrator over flat float64 arrays.
 
     Returns
@@ -251,8 +251,12 @@ def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None):
         One flat array per field of :func:`sweep.registry.kernel_fields`, in its dtype.
 
     ``s`` is the :class:`Settings` (:func:`settings`); ``parallel=None`` picks the parallel
-    kernel when :func:`parallel_allowed`.
+    kernel when :func:`parallel_allowed`; ``device="cuda"`` runs the same per-point solve
+    on the GPU (:mod:`sweep.kernels.cuda`, imported only then).
     """
+    if device == "cuda":
+        from sweep.kernels.cuda import integrate_arrays_cuda  # noqa: PLC0415 -- optional
+        return integrate_arrays_cuda(alpha, beta, gamma, gtilde, s)
     n = alpha.size
     out = {f.name: np.empty(n, dtype=f.dtype) for f in kernel_fields()}
     if parallel is None:
@@ -272,8 +276,8 @@ def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None):
     return out
 
 
-def numeric_cor(alpha, beta, gamma, gtilde, parallel=None, **options):
+def numeric_cor(alpha, beta, gamma, gtilde, parallel=None, device="cpu", **options):
     """The ``"numeric"`` method's kernel (:data:`sweep.registry.METHODS`): ``(e, status)``
     over flat float64 arrays of equal length; ``options`` as for :func:`settings`."""
-    out = integrate_arrays(alpha, beta, gamma, gtilde, settings(**options), parallel)
+    out = integrate_arrays(alpha, beta, gamma, gtilde, settings(**options), parallel, device)
     return out["e"], out["status"]

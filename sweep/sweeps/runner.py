@@ -622,6 +622,19 @@ def _preflight(job, force, limits):
         if not force:
             raise RunError(refusal)
         job.log(f"--force: {refusal.split(';')[0]}")
+    _check_device(job)
+
+
+def _check_device(job):
+    """A run on the GPU needs one: refused before anything is written (no CPU fallback, so
+    that a file never silently comes from another device than its configuration says)."""
+    if job.plan.integrator.get("device", "cpu") != "cuda":
+        return
+    from sweep.kernels.cuda import device_error  # noqa: PLC0415 -- optional numba-cuda
+
+    why = device_error()
+    if why is not None:
+        raise RunError(f'integrator.device = "cuda": {why}')
 
 
 def _take_lock(job):

@@ -1,0 +1,239 @@
+"""The numerical CoR on one CUDA device: the CPU's per-point solve, compiled for the GPU.
+
+One source of truth: the kernel below is a thin loop body around
+:func:`sweep.kernels.integrator.solve_point` -- the same tableau, contact law, step-size
+rule, events, energy-balance decision, creep rules and refinement as the CPU kernels.
+numba-cuda compiles every ``@jit`` function that a CUDA kernel calls as a device function
+(with the same inlining options), so no line of the physics is written twice. One thread
+integrates one point; its stage arrays live in thread-local memory.
+
+Runs larger than a chunk (:data:`CHUNK`, fewer where the device has less free memory) are
+split; each chunk's inputs are copied to the device, integrated and copied back on one of
+two CUDA streams, through pinned host buffers, so that one chunk's transfers overlap the
+other's compute.
+
+**Agreement with the CPU.** The arithmetic is the same; the results are not bit-identical,
+for two reasons that no option of numba-cuda removes: NVVM contracts ``a * b + c`` into
+fused multiply-adds (LLVM on the CPU does not, without fastmath), and CUDA's libdevice
+``pow``/``exp``/``log`` may differ from the C library's in the last bit (``sqrt`` and
+division are correctly rounded on both). Both change e by a few ulp on ordinary points;
+where the integrator amplifies rounding (near the stick/rebound boundary, by about 1/e)
+the difference stays within ``e_err``, and a point whose indicator sits right at the
+refinement target may be refined on one device and not the other.
+
+Without a GPU, ``NUMBA_ENABLE_CUDASIM=1`` runs the same kernel in numba's CUDA simulator
+(slowly; the tests use it).
+
+Owns: the CUDA kernel, the device check, chunked transfers. May import: integrator,
+stepper, registry (numba-cuda only when called).
+"""
+from __future__ import annotations
+
+import functools
+import math
+import os
+
+import numpy as np
+from numba import float64
+
+from sweep.kernels._jit import cached_jit
+from sweep.kernels.integrator import Settings, solve_point
+from sweep.kernels.stepper import N_DENSE, N_STAGES
+from sweep.registry import kernel_fields
+
+__all__ = ["device_error", "integrate_arrays_cuda", "solve_one", "ptx", "CHUNK",
+           "THREADS_PER_BLOCK"]
+
+#: Points per chunk at most (69 bytes of device memory a point, twice for two streams).
+CHUNK = 1 << 22
+#: Threads per block: the solve needs many registers; 128 keeps occupancy reasonable.
+THREADS_PER_BLOCK = 128
+_BYTES_PER_POINT = 4 * 8 + sum(f.dtype.itemsize for f in kernel_fields())
+
+
+def _simulated() -> bool:
+    return os.environ.get("NUMBA_ENABLE_CUDASIM", "") not in ("", "0")
+
+
+def _cuda():
+    """numba-cuda's ``cuda`` module, or a one-line reason why it cannot be used."""
+    try:
+        from numba import cuda  # noqa: PLC0415 -- optional, imported only when asked for
+    except Exception as exc:  # e.g. numba-cuda built against another numpy
+        return None, (f"numba-cuda could not be imported with numpy {np.__version__} "
+                      f"({type(exc).__name__}: {exc}); install the extra: "
+                      f"pip install 'sweep[cuda]'")
+    return cuda, None
+
+
+def device_error() -> str | None:
+    """None if ``device="cuda"`` can run here, otherwise why not (one line)."""
+    cuda, why = _cuda()
+    if cuda is None:
+        return why
+    if _simulated():
+        return None
+    try:
+        if cuda.is_available():
+            return None
+    except Exception as exc:  # a broken driver install raises instead of answering
+        return f"the CUDA driver failed to initialise ({type(exc).__name__}: {exc})"
+    return ("no CUDA GPU or driver found (numba-cuda's cuda.is_available() is False); "
+            "use device='cpu', or run where an NVIDIA GPU and its driver are installed")
+
+
+@cached_jit()
+def solve_one(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, target, K, K2, Q):
+    """:func:`solve_point` with the settings as scalars (kernel arguments). Compiled as a
+    device function inside the CUDA kernel; cached on disk for the CUDA simulator, which
+    calls it from Python (a fresh compile there costs a minute)."""
+    return solve_point(alpha, beta, gamma, gtilde,
+                       Settings(steps, rest_tol, max_steps, target), K, K2, Q)
+
+
+#: numba-cuda's ``cuda`` module once :func:`_kernel` imported it (a module global, as the
+#: CUDA simulator swaps it in the kernel's globals).
+cuda = None
+
+
+def _solve(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, target, e, t_f, u_max,
+           n_steps, status, e_err):
+    """The kernel: point ``i = cuda.grid(1)`` by :func:`solve_point` (one thread a point)."""
+    i = cuda.grid(1)
+    if i < alpha.size:
+        K = cuda.local.array((N_STAGES, 3), float64)
+        K2 = cuda.local.array((N_STAGES, 3), float64)
+        Q = cuda.local.array((2, N_DENSE), float64)
+        r = solve_one(alpha[i], beta[i], gamma[i], gtilde[i], steps, rest_tol, max_steps,
+                      target, K, K2, Q)
+        e[i] = r[0]
+        t_f[i] = r[1]
+        u_max[i] = r[2]
+        n_steps[i] = r[3]
+        status[i] = r[4]
+        e_err[i] = r[5]
+
+
+@functools.lru_cache(maxsize=None)
+def _kernel():
+    global cuda
+    module, why = _cuda()
+    if module is None:
+        raise RuntimeError(why)
+    cuda = module
+    if _simulated():
+        # The simulator calls solve_one from one Python thread per CUDA thread: compile it
+        # (or load it from the cache) here first; from 128 threads at once it took 4x longer.
+        stages = np.empty((N_STAGES, 3))
+        solve_one(1.5, 1.5, 0.1, 0.1, 96.0, 1e-8, 10, 0.0, stages, stages.copy(),
+                  np.empty((2, N_DENSE)))
+    return cuda.jit(_solve)
+
+
+def ptx(cc: tuple[int, int] = (8, 0)) -> str:
+    """The kernel compiled to PTX for compute capability ``cc`` (a compile check: the shared
+    device functions must compile for the GPU; needs numba-cuda and its NVVM library).
+
+    Compiling the ``@jit`` functions the kernel calls asks numba-cuda for the current
+    device's compute capability: without a GPU, patch
+    ``numba.cuda.dispatcher.get_current_device`` (as ``tests/test_cuda.py`` does)."""
+    _kernel()
+    from numba import int8, int32, int64  # noqa: PLC0415
+
+    a = float64[::1]
+    sig = (a, a, a, a, float64, float64, int64, float64, a, a, a, int32[::1], int8[::1], a)
+    code, _ = cuda.compile_ptx(_solve, sig, cc=cc)
+    return code
+
+
+def _chunk_size(cuda, n: int, chunk: int | None) -> int:
+    if chunk is not None:
+        return max(1, min(int(chunk), n))
+    size = min(CHUNK, n)
+    if not _simulated():
+        free, _ = cuda.current_context().get_memory_info()
+        # Two chunks in flight, and half the free memory left to the kernel's local memory.
+        size = min(size, max(THREADS_PER_BLOCK, free // (4 * _BYTES_PER_POINT)))
+    return max(1, size)
+
+
+class _Slot:
+    """One stream with its pinned host buffers and device arrays (one chunk in flight)."""
+
+    def __init__(self, cuda, size: int) -> None:
+        self.stream = cuda.stream()
+        self.host_in = [cuda.pinned_array(size, dtype=np.float64) for _ in range(4)]
+        self.dev_in = [cuda.device_array(size, dtype=np.float64, stream=self.stream)
+                       for _ in range(4)]
+        fields = kernel_fields()
+        self.host_out = [cuda.pinned_array(size, dtype=f.dtype) for f in fields]
+        self.dev_out = [cuda.device_array(size, dtype=f.dtype, stream=self.stream)
+                        for f in fields]
+        self.pending = None     # (lo, hi) of the chunk in flight
+
+    def launch(self, kernel, inputs, lo: int, hi: int, s: Settings) -> None:
+        m = hi - lo
+        for host, dev, x in zip(self.host_in, self.dev_in, inputs):
+            host[:m] = x[lo:hi]
+            dev[:m].copy_to_device(host[:m], stream=self.stream)
+        blocks = math.ceil(m / THREADS_PER_BLOCK)
+        kernel[blocks, THREADS_PER_BLOCK, self.stream](
+            *(d[:m] for d in self.dev_in), s.steps, s.rest_tol, s.max_steps, s.target,
+            *(d[:m] for d in self.dev_out))
+        for host, dev in zip(self.host_out, self.dev_out):
+            dev[:m].copy_to_host(host[:m], stream=self.stream)
+        self.pending = (lo, hi)
+
+    def collect(self, out: dict) -> None:
+        if self.pending is None:
+            return
+        self.stream.synchronize()
+        lo, hi = self.pending
+        for f, host in zip(kernel_fields(), self.host_out):
+            out[f.name][lo:hi] = host[:hi - lo]
+        self.pending = None
+
+
+def integrate_arrays_cuda(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
+                          gtilde: np.ndarray, s: Settings,
+                          chunk: int | None = None) -> dict[str, np.ndarray]:
+    """:func:`sweep.kernels.integrator.integrate_arrays` on the CUDA device.
+
+    Parameters
+    ----------
+    alpha, beta, gamma, gtilde : ndarray of float64
+        Flat arrays of equal length (scaled parameters of eq. (2)).
+    s : Settings
+        The integrator's settings (:func:`sweep.kernels.integrator.settings`).
+    chunk : int, optional
+        Points per chunk (default: :data:`CHUNK`, fewer if device memory is short).
+
+    Returns
+    -------
+    dict of str -> ndarray
+        One flat array per field of :func:`sweep.registry.kernel_fields`.
+
+    Raises
+    ------
+    RuntimeError
+        No usable CUDA device (the message says why, in one line).
+    """
+    why = device_error()
+    if why is not None:
+        raise RuntimeError(f"device='cuda': {why}")
+    from numba import cuda  # noqa: PLC0415
+    n = alpha.size
+    out = {f.name: np.empty(n, dtype=f.dtype) for f in kernel_fields()}
+    if n == 0:
+        return out
+    kernel = _kernel()
+    size = _chunk_size(cuda, n, chunk)
+    inputs = [np.ascontiguousarray(x, dtype=np.float64) for x in (alpha, beta, gamma, gtilde)]
+    slots = [_Slot(cuda, size) for _ in range(min(2, math.ceil(n / size)))]
+    for k, lo in enumerate(range(0, n, size)):
+        slot = slots[k % len(slots)]
+        slot.collect(out)           # the chunk this stream ran before
+        slot.launch(kernel, inputs, lo, min(n, lo + size), s)
+    for slot in slots:
+        slot.collect(out)
+    return out

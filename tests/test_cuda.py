@@ -1,0 +1,157 @@
+"""The CUDA backend (``device="cuda"``, sweep/kernels/cuda.py) without a GPU.
+
+* numba's CUDA simulator (``NUMBA_ENABLE_CUDASIM=1``, in a subprocess: numba reads it at
+  import) runs the real kernel -- its indexing, chunking over two streams, pinned buffers
+  and field mapping -- on a few hundred points: random points of every law and hard cases
+  of ``tests/data/hard_cases.csv``. The simulator executes the kernel's Python with the
+  CPU-compiled device functions, so there it must agree with the CPU backend bit for bit,
+  and with the hard cases' extended-precision references as the CPU does.
+* Without the simulator and without a GPU, ``device="cuda"`` is a one-line error, in the
+  API and in ``sweep run`` (before anything is written).
+* Where numba-cuda and its NVVM library are installed (``pip install ".[cuda]"``), the
+  kernel with every shared device function is compiled to PTX (no GPU needed).
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+import types
+
+import numpy as np
+import pytest
+
+import sweep
+from sweep.kernels import cuda as kc
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+SIM_SCRIPT = textwrap.dedent("""
+    import csv, json, sys
+    import numpy as np
+    import sweep
+    from sweep.kernels import cuda as kc
+    from sweep.kernels.integrator import settings
+
+    rng = np.random.default_rng(3)
+    n = 240
+    a = rng.choice([1.0, 1.5, 2.0, 2.5], n); a[:60] = rng.uniform(1, 4, 60)
+    b = rng.choice([1.0, 1.25, 1.5, 2.5], n); b[:60] = rng.uniform(1, 4, 60)
+    g = 10 ** rng.uniform(-5, 1.5, n)
+    gt = np.where(rng.random(n) < 0.2, 0.0, 10 ** rng.uniform(-3, 2.5, n))
+    rows = list(csv.DictReader(open(sys.argv[1])))
+    pick = [rows[i] for i in np.random.default_rng(4).choice(len(rows), 120, replace=False)]
+    hard = {k: np.array([float(r[k]) for r in pick]) for k in
+            ("alpha", "beta", "gamma", "gtilde", "e_ref", "bound")}
+    A = np.concatenate([a, hard["alpha"]]); B = np.concatenate([b, hard["beta"]])
+    G = np.concatenate([g, hard["gamma"]]); GT = np.concatenate([gt, hard["gtilde"]])
+    out = {"error": kc.device_error()}
+    cpu = sweep.integrate(A, B, G, GT)
+    gpu = sweep.integrate(A, B, G, GT, device="cuda")
+    fields = ("e", "t_f", "u_max", "n_steps", "status", "e_err", "sticks")
+    out["same"] = {f: bool(np.array_equal(np.asarray(getattr(cpu, f)),
+                                          np.asarray(getattr(gpu, f)), equal_nan=True))
+                   for f in fields}
+    chunked = kc.integrate_arrays_cuda(A, B, G, GT, settings(tol=1e-8), chunk=37)
+    ref = sweep.integrate(A, B, G, GT, tol=1e-8)
+    out["chunked_same"] = all(np.array_equal(chunked[k], np.asarray(getattr(ref, k)),
+                                             equal_nan=True) for k in chunked)
+    err = np.abs(np.asarray(gpu.e)[n:] - hard["e_ref"]) - hard["bound"]
+    out["hard_max_excess"] = float(np.max(err))
+    out["scalar"] = sweep.cor(1.5, 1.5, 0.05, 1.0, device="cuda") == sweep.cor(1.5, 1.5, 0.05, 1.0)
+    out["empty"] = sweep.integrate(1.5, 1.5, np.array([]), 0.1, device="cuda").e.shape == (0,)
+    print(json.dumps(out))
+""")
+
+
+def _run_simulated(script, *args, timeout=600):
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    proc = subprocess.run([sys.executable, "-c", script, *args], capture_output=True,
+                          text=True, env=env, timeout=timeout)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def simulated():
+    """The simulator run (one subprocess: compiling the device function once)."""
+    return _run_simulated(SIM_SCRIPT, os.path.join(HERE, "data", "hard_cases.csv"))
+
+
+def test_simulator_is_usable(simulated):
+    assert simulated["error"] is None
+
+
+def test_simulated_kernel_equals_the_cpu_kernel(simulated):
+    assert all(simulated["same"].values()), simulated["same"]
+    assert simulated["scalar"] and simulated["empty"]
+
+
+def test_chunks_over_two_streams_equal_one_cpu_call(simulated):
+    # 360 points in chunks of 37: ten chunks, the two streams alternating, a short last one.
+    assert simulated["chunked_same"]
+
+
+def test_hard_cases_on_the_device_within_the_target(simulated):
+    # The hard cases' own extended-precision references, as tests/test_hard_cases.py.
+    assert simulated["hard_max_excess"] <= 1e-9
+
+
+def _has_gpu():
+    return kc.device_error() is None
+
+
+@pytest.mark.skipif(os.environ.get("NUMBA_ENABLE_CUDASIM", "") not in ("", "0"),
+                    reason="the simulator stands in for a GPU")
+def test_no_gpu_is_a_one_line_error():
+    if _has_gpu():
+        pytest.skip("a CUDA GPU is present")
+    with pytest.raises(RuntimeError) as info:
+        sweep.integrate(1.5, 1.5, 0.1, 0.1, device="cuda")
+    msg = str(info.value)
+    assert msg.startswith("device='cuda': ") and "\n" not in msg
+
+
+def test_device_is_validated():
+    with pytest.raises(ValueError, match="device must be .*'gpu'"):
+        sweep.integrate(1.5, 1.5, 0.1, 0.1, device="gpu")
+    with pytest.raises(ValueError, match="device"):
+        sweep.cor(1.5, 1.5, 0.1, 0.1, device=3)
+
+
+def test_sweep_run_on_a_missing_gpu_is_refused_before_writing(tmp_path):
+    if _has_gpu():
+        pytest.skip("a CUDA GPU is present")
+    cfg = tmp_path / "gpu.toml"
+    cfg.write_text('[design]\nkind = "grid"\nalpha = 1.5\nbeta = 1.5\ngamma = [0.01, 0.1]\n'
+                   'gtilde = 0.1\n[outputs]\ne = ["numeric"]\n[integrator]\ndevice = "cuda"\n')
+    out = tmp_path / "gpu.nc"
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
+    proc = subprocess.run([sys.executable, "-m", "sweep", "run", str(cfg), "-o", str(out)],
+                          capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 1
+    lines = proc.stderr.strip().splitlines()
+    assert 'integrator.device = "cuda"' in lines[-1] and "Traceback" not in proc.stderr
+    assert not out.exists() and list(tmp_path.iterdir()) == [cfg]
+
+
+def test_kernel_compiles_to_ptx(monkeypatch):
+    """Every device function the kernel shares with the CPU compiles for the GPU."""
+    pytest.importorskip("numba_cuda", reason="numba-cuda not installed (pip install '.[cuda]')")
+    from numba.cuda import dispatcher  # noqa: PLC0415
+    try:
+        from numba.cuda.cudadrv.libs import get_libdevice  # noqa: PLC0415
+        get_libdevice()
+    except Exception as exc:  # noqa: BLE001 -- no NVVM / libdevice: nothing to compile with
+        pytest.skip(f"no CUDA NVVM library: {exc}")
+    if not _has_gpu():
+        # numba-cuda asks the current device for its compute capability when it compiles
+        # a device function: answer for it.
+        monkeypatch.setattr(dispatcher, "get_current_device",
+                            lambda: types.SimpleNamespace(compute_capability=(8, 0)))
+    code = kc.ptx((8, 0))
+    assert ".entry" in code and "_solve" in code
+    # Thread-local stage arrays (2 x 7 x 3 + 2 x 5 doubles), not global memory.
+    assert ".local" in code
