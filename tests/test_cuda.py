@@ -155,3 +155,24 @@ def test_kernel_compiles_to_ptx(monkeypatch):
     assert ".entry" in code and "_solve" in code
     # Thread-local stage arrays (2 x 7 x 3 + 2 x 5 doubles), not global memory.
     assert ".local" in code
+
+
+def test_gpu_benchmark_machinery_in_the_simulator(tmp_path):
+    """benchmarks/gpu.py --quick: one JSON line per figure, errors against DOP853 sane,
+    the simulated device agreeing with the CPU exactly (the values of a quick run mean
+    nothing else)."""
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    proc = subprocess.run([sys.executable, os.path.join(HERE, "..", "benchmarks", "gpu.py"),
+                           "--quick", "--cache-dir", str(tmp_path)], capture_output=True,
+                          text=True, env=env, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    lines = [json.loads(x) for x in proc.stdout.splitlines()]
+    assert "compile_s" in lines[0] and lines[0]["device"] == "CUDA simulator"
+    figures = lines[1:]
+    assert [(x["law"], x.get("tol", x.get("steps"))) for x in figures] == (
+        [("kk", k) for k in (1e-6, 1e-8, 1e-10, 32.0, 96.0)]
+        + [("general", k) for k in (1e-6, 1e-8, 1e-10)])
+    for x in figures:
+        assert x["max_gpu_cpu_diff"] == 0.0 and x["gpu_points_per_s"] > 0
+        if "tol" in x:
+            assert x["max_abs_error"] <= x["tol"]

@@ -61,6 +61,7 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     steps = 64                     # per half period of the linearised motion
     rest_tol = 1e-8
     max_steps = 1000000
+    device = "cpu"                 # or "cuda": one CUDA GPU (pip install 'sweep[cuda]')
 
     [options.ord2_approx]          # per-method options passed to sweep.api.cor
     n = 21
