@@ -19,8 +19,8 @@ import numpy as np
 from sweep import registry
 from sweep._arrays import Broadcast, broadcast_points
 from sweep.kernels import approx as _approx
-from sweep.kernels.integrator import (DEFAULT_MAX_STEPS, DEFAULT_REST_TOL, DEFAULT_STEPS,
-                                      integrate_arrays, settings)
+from sweep.kernels.devices import integrate_on
+from sweep.kernels.integrator import DEFAULT_MAX_STEPS, DEFAULT_REST_TOL, DEFAULT_STEPS, settings
 from sweep.registry import Status
 
 __all__ = ["integrate", "cor", "cor_with_status", "cor_fields", "IntegrationResult", "METHODS",
@@ -133,7 +133,7 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
                                refine=refine, device=device)
     device = opts.pop("device")
     b = broadcast_points(alpha, beta, gamma, gtilde)
-    out = integrate_arrays(*b.flat, settings(**opts), parallel=parallel, device=device)
+    out = integrate_on(*b.flat, settings(**opts), parallel=parallel, device=device)
     for f in registry.FIELDS.values():
         if f.derived is not None:
             out[f.name] = f.derived(out)

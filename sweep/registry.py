@@ -402,7 +402,7 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            "e = -v(T_f) (report eq. (3)) from the fixed-step Runge-Kutta integration of the "
            "(u, w) system, eq. (4), through the three phases of Algorithm 1; 0 if the bead "
            "sticks or comes to rest", "(3), (4), Algorithm 1",
-           "sweep.kernels.integrator:numeric_cor", _INTEGRATOR_OPTIONS, integrates=True),
+           "sweep.kernels.devices:numeric_cor", _INTEGRATOR_OPTIONS, integrates=True),
     Method("ord1", "coefficient of restitution, first-order approximation",
            "e = max(1 - gamma C0 - gamma g~ C1, 0), report eq. (22)", "(22)",
            "sweep.kernels.approx:ord1"),

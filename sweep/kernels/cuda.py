@@ -25,7 +25,7 @@ Without a GPU, ``NUMBA_ENABLE_CUDASIM=1`` runs the same kernel in numba's CUDA s
 (slowly; the tests use it).
 
 Owns: the CUDA kernel, the device check, chunked transfers. May import: integrator,
-stepper, registry (numba-cuda only when called).
+stepper, registry, _jit (numba-cuda only when called).
 """
 from __future__ import annotations
 

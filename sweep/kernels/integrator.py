@@ -44,7 +44,7 @@ from sweep.kernels.regimes import creeps_from_start, deep_well, linear_overdampe
 from sweep.kernels.stepsize import policy, resolution
 from sweep.registry import METHODS, Status, kernel_fields
 
-__all__ = ["integrate_arrays", "solve_point", "numeric_cor", "Settings", "settings",
+__all__ = ["integrate_arrays", "solve_point", "Settings", "settings",
            "DEFAULT_STEPS",
            "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL", "REFINE_TARGET", "MAX_REFINEMENT"]
 
@@ -242,8 +242,8 @@ def _kernel_serial(blocks, alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps
                status, e_err)
 
 
-def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None, device="cpu"):
-    """Run the integrator over flat float64 arrays.
+def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None):
+    """Run the integrator over flat float64 arrays on the CPU.
 
     Returns
     -------
@@ -251,12 +251,9 @@ def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None, device="cpu")
         One flat array per field of :func:`sweep.registry.kernel_fields`, in its dtype.
 
     ``s`` is the :class:`Settings` (:func:`settings`); ``parallel=None`` picks the parallel
-    kernel when :func:`parallel_allowed`; ``device="cuda"`` runs the same per-point solve
-    on the GPU (:mod:`sweep.kernels.cuda`, imported only then).
+    kernel when :func:`parallel_allowed`. (:mod:`sweep.kernels.devices` chooses between
+    this and the CUDA kernel.)
     """
-    if device == "cuda":
-        from sweep.kernels.cuda import integrate_arrays_cuda  # noqa: PLC0415 -- optional
-        return integrate_arrays_cuda(alpha, beta, gamma, gtilde, s)
     n = alpha.size
     out = {f.name: np.empty(n, dtype=f.dtype) for f in kernel_fields()}
     if parallel is None:
@@ -274,10 +271,3 @@ def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None, device="cpu")
     kernel(blocks, alpha, beta, gamma, gtilde, s, out["e"], out["t_f"], out["u_max"],
            out["n_steps"], out["status"], out["e_err"])
     return out
-
-
-def numeric_cor(alpha, beta, gamma, gtilde, parallel=None, device="cpu", **options):
-    """The ``"numeric"`` method's kernel (:data:`sweep.registry.METHODS`): ``(e, status)``
-    over flat float64 arrays of equal length; ``options`` as for :func:`settings`."""
-    out = integrate_arrays(alpha, beta, gamma, gtilde, settings(**options), parallel, device)
-    return out["e"], out["status"]
