@@ -182,7 +182,7 @@ def _refined(c, s, a, K, K2, Q):
     b, a = a, _solve_at(c, 2.0 * s.steps, s, s.max_steps - a.n, K, K2, Q)
     n = a.n + b.n
     if a.status == _BUDGET:
-        return _kept(b, n)
+        return _kept(b, n, b.err)
     err, floor = _richardson(a, b, 2.0)
     done = 2.0
     # Refine while the resolution-dependent part of the error is above the target, with a
@@ -192,21 +192,21 @@ def _refined(c, s, a, K, K2, Q):
     while err - floor > aim and done < MAX_REFINEMENT and n < s.max_steps:
         f = min(max(1.25 * (err / aim) ** 0.2, 1.5), MAX_REFINEMENT / done)
         done *= f
-        prev, prev_err = a, err
+        b_err = err
         b, a = a, _solve_at(c, done * s.steps, s, s.max_steps - n, K, K2, Q)
         n += a.n
         if a.status == _BUDGET:
-            return _kept(prev, n, prev_err)
+            return _kept(b, n, b_err)
         err, floor = _richardson(a, b, f)
     return a.e, a.t_f, a.u_max, n, a.status, err
 
 
 @jit(inline="always")
-def _kept(r, n, err=-1.0):
+def _kept(r, n, err):
     """A march kept when a finer one ran out of budget (a slow creep at g~ = 0 needs
-    many steps at every resolution): its result, with its own error estimate, and the
+    many steps at every resolution): its result with its error estimate ``err``, and the
     steps of every march."""
-    return r.e, r.t_f, r.u_max, n, r.status, r.err if err < 0.0 else err
+    return r.e, r.t_f, r.u_max, n, r.status, err
 
 
 @jit()
