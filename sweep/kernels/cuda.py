@@ -36,7 +36,7 @@ import os
 import numpy as np
 from numba import float64
 
-from sweep.kernels._jit import cached_jit
+from sweep.kernels._jit import cached_jit, kernel_cache
 from sweep.kernels.integrator import Settings, solve_point
 from sweep.kernels.stepper import N_DENSE, N_STAGES
 from sweep.registry import kernel_fields
@@ -127,7 +127,10 @@ def _kernel():
         stages = np.empty((N_STAGES, 3))
         solve_one(1.5, 1.5, 0.1, 0.1, 96.0, 1e-8, 10, 0.0, stages, stages.copy(),
                   np.empty((2, N_DENSE)))
-    return cuda.jit(_solve)
+    # Cached on disk beside the CPU kernels (keyed on the kernel sources): NVVM takes tens
+    # of seconds for this kernel, once per machine and source version.
+    with kernel_cache():
+        return cuda.jit(_solve, cache=True)
 
 
 def ptx(cc: tuple[int, int] = (8, 0)) -> str:
