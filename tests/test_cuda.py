@@ -62,6 +62,15 @@ SIM_SCRIPT = textwrap.dedent("""
     out["hard_max_excess"] = float(np.max(err))
     out["scalar"] = sweep.cor(1.5, 1.5, 0.05, 1.0, device="cuda") == sweep.cor(1.5, 1.5, 0.05, 1.0)
     out["empty"] = sweep.integrate(1.5, 1.5, np.array([]), 0.1, device="cuda").e.shape == (0,)
+    cfg = {"design": {"kind": "grid", "alpha": 1.5, "beta": 1.5,
+                      "gamma": {"start": 1e-3, "stop": 1.0, "num": 7, "spacing": "log"},
+                      "gtilde": [0.0, 0.5, 5.0]},
+           "outputs": {"e": ["numeric", "auto"], "fields": ["e_err", "status"]}}
+    ds_cpu = sweep.run(cfg, quiet=True)
+    ds_gpu = sweep.run(dict(cfg, integrator={"device": "cuda"}), quiet=True)
+    out["run_same"] = all(bool(np.array_equal(ds_cpu[v].values, ds_gpu[v].values, equal_nan=True))
+                          for v in ("e_numeric", "e_auto", "e_err", "status"))
+    out["run_device_attr"] = ds_gpu.attrs.get("integrator_device")
     print(json.dumps(out))
 """)
 
@@ -87,6 +96,12 @@ def test_simulator_is_usable(simulated):
 def test_simulated_kernel_equals_the_cpu_kernel(simulated):
     assert all(simulated["same"].values()), simulated["same"]
     assert simulated["scalar"] and simulated["empty"]
+
+
+def test_a_sweep_on_the_device_equals_the_cpu_sweep(simulated):
+    # integrator.device = "cuda" reaches the integrated points of "numeric" and "auto",
+    # and the dataset says where it ran.
+    assert simulated["run_same"] and simulated["run_device_attr"] == "cuda"
 
 
 def test_chunks_over_two_streams_equal_one_cpu_call(simulated):
