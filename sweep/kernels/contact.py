@@ -22,7 +22,7 @@ from typing import NamedTuple
 from sweep.kernels._jit import jit
 from sweep.registry import PARAMETERS
 
-__all__ = ["Law", "make_law", "power_kind", "ppow", "rhs", "velocity", "accel", "dissipated",
+__all__ = ["Law", "make_law", "power_kind", "ppow", "ppow_called", "rhs", "velocity", "accel", "dissipated",
            "potential", "damping_rate", "equilibrium", "well_depth", "damping_ratio", "natural_frequency",
            "umax_undamped", "elastic_frequency", "in_domain", "KIND_ONE"]
 
@@ -95,8 +95,7 @@ def _integer(p):
     return p == 1.0 or p == 2.0 or p == 3.0
 
 
-@jit(inline="always")
-def ppow(x, p, kind):
+def _power(x, p, kind):
     """``x**p`` for ``x > 0``, and 0 for ``x <= 0`` (the report's ``x_+^p``; also for p = 0,
     where it is the indicator of contact, closed at x = 0: the bead is in contact from its
     first instant, so the damper acts at tau = 0)."""
@@ -121,6 +120,15 @@ def ppow(x, p, kind):
     if kind == _KIND_QUARTER:
         return math.sqrt(math.sqrt(x))
     return x ** p
+
+
+#: :func:`_power` inlined into its caller: for the stages' right-hand side (:func:`rhs`),
+#: where it is most of a step's cost and the exponent codes fold away.
+ppow = jit(inline="always")(_power)
+#: The same compiled once and called: for everything else (velocity, energies, events,
+#: creep rules, the decision), off the per-step path; inlining its ten branches at each of
+#: those call sites cost compile time (seconds), not speed.
+ppow_called = jit()(_power)
 
 
 @jit(inline="always")
@@ -170,26 +178,26 @@ def rhs(u, w, c):
 @jit(inline="always")
 def velocity(u, w, c):
     """``v = w - gamma u_+^beta``: the bead's velocity from the Lipschitz state (4)."""
-    return w - c.gamma * ppow(u, c.beta, c.kb)
+    return w - c.gamma * ppow_called(u, c.beta, c.kb)
 
 
 @jit(inline="always")
 def accel(u, v, c):
     """``dv/dtau = g~ - u^alpha - gamma beta u^(beta-1) v`` for u >= 0 (eq. (1) scaled)."""
-    return c.gtilde - ppow(u, c.alpha, c.ka) - c.gamma * c.beta * ppow(u, c.beta - 1.0, c.kd) * v
+    return c.gtilde - ppow_called(u, c.alpha, c.ka) - c.gamma * c.beta * ppow_called(u, c.beta - 1.0, c.kd) * v
 
 
 @jit(inline="always")
 def dissipated(u, v, r, c):
     """Energy dissipated so far, ``q = gamma v u_+^beta + r`` (see :func:`rhs`)."""
-    return c.gamma * v * ppow(u, c.beta, c.kb) + r
+    return c.gamma * v * ppow_called(u, c.beta, c.kb) + r
 
 
 @jit(inline="always")
 def potential(u, c):
     """``V(u) = u_+^(alpha+1)/(alpha+1) - g~ u``: the energy is ``H = v^2/2 + V(u)``, which
     the damper lowers by exactly the dissipated energy q (``H = 1/2 - q``)."""
-    return u * ppow(u, c.alpha, c.ka) / (c.alpha + 1.0) - c.gtilde * u
+    return u * ppow_called(u, c.alpha, c.ka) / (c.alpha + 1.0) - c.gtilde * u
 
 
 @jit(inline="always")

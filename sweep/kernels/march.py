@@ -39,7 +39,7 @@ import numpy as np
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import (accel, damping_ratio, dissipated, equilibrium, make_law,
-                                   potential, ppow, rhs, velocity)
+                                   potential, ppow_called, rhs, velocity)
 from sweep.kernels.creep import (ROUNDING_V, creep_constants, energy_margin, jump,
                                  near_slow_branch, never_leaves)
 from sweep.kernels.events import ON_U, ON_V, locate
@@ -108,8 +108,8 @@ def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, c):
         d = dn
     # The last Newton correction is O(u_e), within roundoff; apply it to first order.
     delta = -ue / ve if ve < 0.0 else 0.0
-    v_f = ve + delta * (c.gtilde - ppow(ue, c.alpha, c.ka))
-    q_f = dissipated(ue, ve, r_e, c) + delta * c.gamma * c.beta * ppow(ue, c.beta - 1.0, c.kd) * ve * ve
+    v_f = ve + delta * (c.gtilde - ppow_called(ue, c.alpha, c.ka))
+    q_f = dissipated(ue, ve, r_e, c) + delta * c.gamma * c.beta * ppow_called(ue, c.beta - 1.0, c.kd) * ve * ve
     return d, q_f, v_f, used
 
 
@@ -275,7 +275,7 @@ def _jumped(c, k, u, t, K):
     there. The energy left there, ``e0 = H``, is far below 1/2's rounding (e.g. 1e-17), so
     the dissipation restarts from 0 (``q = gamma v u^beta + r = 0``) and ``H = e0 - q``."""
     u, w, v, dt = jump(c, k, u)
-    r = -c.gamma * v * ppow(u, c.beta, c.kb)
+    r = -c.gamma * v * ppow_called(u, c.beta, c.kb)
     fu, fw, fr = rhs(u, w, c)
     _set_first_stage(K, fu, fw, fr)
     return u, w, r, v, t + dt, 0.5 * v * v + potential(u, c)
