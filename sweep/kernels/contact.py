@@ -167,6 +167,14 @@ def rhs(u, w, c):
         pa = pb if c.alpha == c.beta else _polynomial(u, c.ka)
         v = w - c.gamma * pb
         return v, c.gtilde - pa, -c.gamma * pb * (c.gtilde - pa - c.gamma * c.beta * pd * v)
+    if c.kd == _KIND_GENERAL and c.ka == _KIND_GENERAL and u > 0.0:
+        # General exponents: one log for both powers (a pow is a log and an exp).
+        lu = math.log(u)
+        pd = math.exp((c.beta - 1.0) * lu)
+        pb = u * pd
+        pa = math.exp(c.alpha * lu)
+        v = w - c.gamma * pb
+        return v, c.gtilde - pa, -c.gamma * pb * (c.gtilde - pa - c.gamma * c.beta * pd * v)
     pd = ppow(u, c.beta - 1.0, c.kd)
     pb = u * pd if u > 0.0 else 0.0
     # Equal exponents (linear, Kuwabara-Kono) share the one power: it is most of a stage's cost.
