@@ -191,3 +191,15 @@ def test_gpu_benchmark_machinery_in_the_simulator(tmp_path):
         assert x["max_gpu_cpu_diff"] == 0.0 and x["gpu_points_per_s"] > 0
         if "tol" in x:
             assert x["max_abs_error"] <= x["tol"]
+
+
+def test_device_kernel_cache_is_keyed_on_the_kernel_sources():
+    """numba-cuda keeps its own cache configuration: the kernel's cache must still live
+    under the source-hash directory (numba's own check sees only cuda.py's time stamp)."""
+    pytest.importorskip("numba_cuda", reason="numba-cuda not installed (pip install '.[cuda]')")
+    if os.environ.get("NUMBA_ENABLE_CUDASIM", "") not in ("", "0"):
+        pytest.skip("the simulator does not cache")
+    from sweep.kernels import _jit  # noqa: PLC0415
+
+    kernel = kc._kernel()
+    assert str(kernel._cache._cache_path).startswith(str(_jit.cache_dir()))

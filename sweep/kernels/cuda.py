@@ -127,8 +127,9 @@ def _kernel():
         stages = np.empty((N_STAGES, 3))
         solve_one(1.5, 1.5, 0.1, 0.1, 96.0, 1e-8, 10, 0.0, stages, stages.copy(),
                   np.empty((2, N_DENSE)))
-    # Cached on disk beside the CPU kernels (keyed on the kernel sources): NVVM takes tens
-    # of seconds for this kernel, once per machine and source version.
+    # Cached on disk beside the CPU kernels (keyed on the kernel sources; numba-cuda reads
+    # numba's configuration when numba is installed, tests/test_cuda.py checks where):
+    # NVVM takes tens of seconds for this kernel, once per machine and source version.
     with kernel_cache():
         return cuda.jit(_solve, cache=True)
 
