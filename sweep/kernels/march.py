@@ -245,22 +245,23 @@ class Ending(NamedTuple):
 @jit(inline="always")
 def _creep_rule(c, k, u, w, r, v, e0, e_tol, phase):
     """Heavy damping, in phases 2 and 3 inside ``R = {v + w >= 0}`` (docs/creep.md,
-    section 7): the Ending kind it decides (CREEP, NEGLIGIBLE, SPENT), BUDGET if the state
-    should jump along the slow branch, or -1. ``e0``: the energy when q was last zero."""
+    section 7): ``(kind, h)``, the Ending kind it decides (CREEP, NEGLIGIBLE, SPENT), BUDGET
+    if the state should jump along the slow branch, or -1, and the energy left it judged
+    by. ``e0``: the energy when q was last zero."""
     # Two estimates of the energy: 1/2 - q, whose integral carries the march's error of
     # the stop (~1e-9 at gamma = 1e10, where H ~ -1e-10 matters), and the state's own
     # v^2/2 + F(u), exact up to rounding for a bead the damper holds (inside R).
     h = min(e0 - dissipated(u, v, r, c), 0.5 * v * v + potential(u, c)) \
         + energy_margin(u, v, c)
     if h < 0.0:
-        return SPENT
+        return SPENT, h
     if never_leaves(c, k, u, w, v, h):
-        return CREEP
+        return CREEP, h
     if 2.0 * h <= e_tol * e_tol:
-        return NEGLIGIBLE
+        return NEGLIGIBLE, h
     if phase > 1 and near_slow_branch(c, k, u, w, v):   # the branch down to the floor
-        return BUDGET
-    return -1
+        return BUDGET, h
+    return -1, h
 
 
 @jit(inline="always")
@@ -388,7 +389,7 @@ def _creep_rules(st, c, k, K, e_tol):
         # Creeping back: steps follow the local time scales, which grow as u
         # falls (docs/creep.md, section 7).
         st = _with_policy(st, local_policy(p))
-    kind = _creep_rule(c, k, u, w, r, v, st.e0, e_tol, st.phase)
+    kind, h = _creep_rule(c, k, u, w, r, v, st.e0, e_tol, st.phase)
     if kind == BUDGET:
         u, w, r, v, t, e0 = _jumped(c, k, u, st.t, K)
         if not (math.isfinite(t) and v != 0.0):
@@ -399,6 +400,12 @@ def _creep_rules(st, c, k, K, e_tol):
             return st, Ending(NEGLIGIBLE, math.inf, u, v, h, st.u_max, st.n, st.lw, st.lq)
         return _after_jump(st, u, w, r, v, t, e0), Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0,
                                                           0.0, 0.0)
+    if kind == NEGLIGIBLE:
+        # The energy the rule judged by (the state's own energy where it is the smaller,
+        # exact to rounding for a bead the damper holds), not 1/2 - q, whose integral
+        # carries the march's error (~1e-12 after a long creep: a bound of 3e-6 on e
+        # where the state says 1e-10).
+        return st, Ending(NEGLIGIBLE, st.t, u, v, max(h, 0.0), st.u_max, st.n, st.lw, st.lq)
     if kind >= 0:
         return st, _ending(kind, st, st.t, u, v, dissipated(u, v, r, c), st.n)
     return st, Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
