@@ -13,7 +13,7 @@ energy ``H = v^2/2 + F(u) = 1/2 - q``.
 * Slow branch (kappa < 0). On the way back a heavily damped bead follows the overdamped
   branch ``v = V(u)`` of ``v dv/du = g~ - u^alpha - gamma beta u^(beta-1) v``, which
   attracts neighbouring trajectories at the rate ``gamma beta u^(beta-1)``; where
-  ``eps <= EPS_JUMP / 10`` and the state is near it (``|phi - 1 - p eps| <= 0.1``,
+  ``eps <= EPS_JUMP / 2`` (``/ 10`` under a load) and the state is near it (``|phi - 1 - p eps| <= 0.1``,
   ``phi = -gamma beta v / u^p``), :func:`jump` moves the bead along it to ``u_t`` with
   ``eps(u_t) = EPS_JUMP`` (raised to 1.1 u-bar under a load), at the leading-order branch
   ``V = (g~ - u^alpha) / (gamma beta u^(beta-1))``. The placement error is damped by
@@ -77,7 +77,11 @@ def creep_constants(c):
     if kappa < 0.0 and c.gamma > 0.0:
         eps_t = min(1.0 / (_JUMP_KAPPA * -kappa), 1.0 / (_JUMP_P * max(abs(p), 1e-300)))
         u_t = max((eps_t * gb2) ** (1.0 / kappa), 1.1 * ubar)
-        u_jump = (0.1 * eps_t * gb2) ** (1.0 / kappa)
+        # Depart where eps <= eps_t / 2 at g~ = 0 (the landing's placement error is damped
+        # by exp(-1/(|kappa| eps_t)) whatever the departure), eps_t / 10 under a load, whose
+        # landing at 1.1 u-bar has no such margin (a grazing SHC point at g~ = 1e-3 was off
+        # by 1.2e-10 departing at eps_t / 2).
+        u_jump = ((0.5 if c.gtilde == 0.0 else 0.1) * eps_t * gb2) ** (1.0 / kappa)
     return Creep(kappa, p, u_c, f_uc, ubar, u_jump, u_t)
 
 
