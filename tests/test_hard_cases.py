@@ -215,7 +215,10 @@ def _extreme_draw(n, seed):
     # kappa = alpha + 1 - 2 beta slightly negative with a huge gamma at g~ = 0: the creep's
     # landing point (~1e-75) underflowed its speed and the march went NaN.
     extra = np.array([[9.890844236618802, 5.523142417260927, 374863313.42473215, 0.0],
-                      [9.890844236618802, 5.523142417260927, 1e6, 0.0]])
+                      [9.890844236618802, 5.523142417260927, 1e6, 0.0],
+                      # kappa = +0.036 with gamma = 1.8e8: u_c overflowed, F(u_c) was NaN,
+                      # no certificate, and the march spent its budget.
+                      [2.6201529019374696, 1.7920472490036603, 177062278.63491344, 0.0]])
     return [np.concatenate([x, extra[:, i]]) for i, x in enumerate((a, b, g, gt))]
 
 

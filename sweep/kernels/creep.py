@@ -73,6 +73,10 @@ def creep_constants(c):
     gb2 = (c.gamma * c.beta) ** 2
     u_c = (0.25 * c.gamma * c.gamma * c.beta) ** (1.0 / kappa) if kappa != 0.0 else math.nan
     f_uc = potential(u_c, c) if kappa != 0.0 else math.nan
+    if u_c == math.inf:
+        # kappa > 0 tiny with a huge gamma (e.g. 0.036 and 1e8): u_c overflows, and F there
+        # is +inf, not the NaN of inf - g~ * inf at g~ = 0.
+        f_uc = math.inf
     u_jump = u_t = -1.0
     if kappa < 0.0 and c.gamma > 0.0:
         eps_t = min(1.0 / (_JUMP_KAPPA * -kappa), 1.0 / (_JUMP_P * max(abs(p), 1e-300)))
