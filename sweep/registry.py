@@ -510,7 +510,8 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
           "(status)", derived=_sticks, flags={"rebounds": 0, "sticks": 1}),
     Field("t_f", np.dtype(np.float64), "impact duration T_f",
           "scaled time T_f at the end of the impact (report eq. (3)), in units of T of "
-          "eq. (2)", fill_value=math.nan),
+          "eq. (2); inf where the bead creeps for ever, or longer than double precision "
+          "can count", fill_value=math.nan),
     Field("u_max", np.dtype(np.float64), "maximum compression u_M",
           "scaled maximum compression u(tau_0) where v = 0 (Algorithm 1, phase 1), in units "
           "of delta = v0 T of eq. (2)", fill_value=math.nan),
