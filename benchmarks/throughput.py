@@ -73,7 +73,7 @@ def main(argv=None):
           f"mean RK steps/point: {r.n_steps.mean():.1f} (single march: "
           f"{single.n_steps.mean():.1f}; refined: {100 * refined:.2f}% of points)")
     print(f"max e_err (the engine's own error estimate): {np.nanmax(r.e_err):.2e}")
-    print(f"statuses: " + ", ".join(f"{sweep.Status(k).name}={c}" for k, c in
+    print("statuses: " + ", ".join(f"{sweep.Status(k).name}={c}" for k, c in
                                      enumerate(np.bincount(r.status, minlength=5)) if c))
     print(f"throughput: {rate:,.0f} points/s (best of {args.repeat}: {best:.2f} s)")
     print(f"max abs error vs DOP853 on {idx.size} points: {err.max():.2e} "

@@ -8,7 +8,6 @@ import pytest
 import sweep
 from sweep import registry
 from sweep.kernels import approx as A
-from sweep.kernels import special as S
 from sweep.model import Status
 
 KK = (1.5, 1.5)

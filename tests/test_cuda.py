@@ -20,7 +20,6 @@ import sys
 import textwrap
 import types
 
-import numpy as np
 import pytest
 
 import sweep

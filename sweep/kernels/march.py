@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import (accel, damping_ratio, dissipated, equilibrium, make_law,
+from sweep.kernels.contact import (accel, damping_ratio, dissipated, make_law,
                                    potential, ppow_called, rhs, velocity)
 from sweep.kernels.creep import (ROUNDING_V, creep_constants, energy_margin, jump,
                                  near_slow_branch, never_leaves)

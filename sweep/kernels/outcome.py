@@ -47,7 +47,7 @@ import numpy as np
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import potential, well_depth
-from sweep.kernels.march import BUDGET, CREEP, EXIT, NEGLIGIBLE, REST, SPENT, TROUGH
+from sweep.kernels.march import CREEP, EXIT, NEGLIGIBLE, REST, SPENT, TROUGH
 from sweep.registry import Status
 
 __all__ = ["decide", "cor_at_exit", "ROUNDING", "KAPPA_Q", "KAPPA_W", "BALANCE_MIN_E2", "DAMPED_OUT"]
