@@ -22,9 +22,10 @@ from typing import NamedTuple
 from sweep.kernels._jit import jit
 from sweep.registry import PARAMETERS
 
-__all__ = ["Law", "make_law", "power_kind", "ppow", "ppow_called", "rhs", "velocity", "accel", "dissipated",
-           "potential", "damping_rate", "equilibrium", "well_depth", "damping_ratio", "natural_frequency",
-           "umax_undamped", "elastic_frequency", "in_domain", "KIND_ONE"]
+__all__ = ["Law", "make_law", "power_kind", "ppow", "ppow_called", "rhs", "velocity", "accel",
+           "dissipated", "potential", "damping_rate", "equilibrium", "well_depth",
+           "damping_ratio", "natural_frequency", "umax_undamped", "elastic_frequency",
+           "in_domain", "KIND_ONE"]
 
 # Exponents of the report's models get a pow-free evaluation: pow() dominates the cost of a
 # stage, and sqrt is exact-rounded and several times cheaper.
@@ -165,20 +166,18 @@ def rhs(u, w, c):
         pd = _polynomial(u, c.kd)
         pb = u * pd
         pa = pb if c.alpha == c.beta else _polynomial(u, c.ka)
-        v = w - c.gamma * pb
-        return v, c.gtilde - pa, -c.gamma * pb * (c.gtilde - pa - c.gamma * c.beta * pd * v)
-    if c.kd == _KIND_GENERAL and c.ka == _KIND_GENERAL and u > 0.0:
+    elif c.kd == _KIND_GENERAL and c.ka == _KIND_GENERAL and u > 0.0:
         # General exponents: one log for both powers (a pow is a log and an exp).
         lu = math.log(u)
         pd = math.exp((c.beta - 1.0) * lu)
         pb = u * pd
         pa = math.exp(c.alpha * lu)
-        v = w - c.gamma * pb
-        return v, c.gtilde - pa, -c.gamma * pb * (c.gtilde - pa - c.gamma * c.beta * pd * v)
-    pd = ppow(u, c.beta - 1.0, c.kd)
-    pb = u * pd if u > 0.0 else 0.0
-    # Equal exponents (linear, Kuwabara-Kono) share the one power: it is most of a stage's cost.
-    pa = pb if c.alpha == c.beta else ppow(u, c.alpha, c.ka)
+    else:
+        pd = ppow(u, c.beta - 1.0, c.kd)
+        pb = u * pd if u > 0.0 else 0.0
+        # Equal exponents (linear, Kuwabara-Kono) share the one power: it is most of a
+        # stage's cost.
+        pa = pb if c.alpha == c.beta else ppow(u, c.alpha, c.ka)
     v = w - c.gamma * pb
     return v, c.gtilde - pa, -c.gamma * pb * (c.gtilde - pa - c.gamma * c.beta * pd * v)
 

@@ -150,7 +150,7 @@ def ptx(cc: tuple[int, int] = (8, 0)) -> str:
     return code
 
 
-def _chunk_size(cuda, n: int, chunk: int | None) -> int:
+def _chunk_size(n: int, chunk: int | None) -> int:
     if chunk is not None:
         return max(1, min(int(chunk), n))
     size = min(CHUNK, n)
@@ -164,7 +164,7 @@ def _chunk_size(cuda, n: int, chunk: int | None) -> int:
 class _Slot:
     """One stream with its pinned host buffers and device arrays (one chunk in flight)."""
 
-    def __init__(self, cuda, size: int) -> None:
+    def __init__(self, size: int) -> None:
         self.stream = cuda.stream()
         self.host_in = [cuda.pinned_array(size, dtype=np.float64) for _ in range(4)]
         self.dev_in = [cuda.device_array(size, dtype=np.float64, stream=self.stream)
@@ -225,15 +225,14 @@ def integrate_arrays_cuda(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray
     why = device_error()
     if why is not None:
         raise RuntimeError(f"device='cuda': {why}")
-    from numba import cuda  # noqa: PLC0415
     n = alpha.size
     out = {f.name: np.empty(n, dtype=f.dtype) for f in kernel_fields()}
     if n == 0:
         return out
-    kernel = _kernel()
-    size = _chunk_size(cuda, n, chunk)
+    kernel = _kernel()          # and the module global cuda with it
+    size = _chunk_size(n, chunk)
     inputs = [np.ascontiguousarray(x, dtype=np.float64) for x in (alpha, beta, gamma, gtilde)]
-    slots = [_Slot(cuda, size) for _ in range(min(2, math.ceil(n / size)))]
+    slots = [_Slot(size) for _ in range(min(2, math.ceil(n / size)))]
     for k, lo in enumerate(range(0, n, size)):
         slot = slots[k % len(slots)]
         slot.collect(out)           # the chunk this stream ran before
