@@ -152,3 +152,20 @@ def test_unknown_figure_is_refused():
     with pytest.raises(SystemExit):
         run_all._selected(["nonsense"])
     assert run_all._selected(["gil", "kk_tol1e-8"]) == ["kk_tol1e-8", "gil_release"]
+
+
+def test_error_model_script_prints_one_line_per_law_and_resolution():
+    script = ROOT / "benchmarks" / "error_model.py"
+    res = subprocess.run([sys.executable, str(script), "--n", "300", "--steps", "24", "48"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    lines = res.stdout.splitlines()
+    assert len(lines) == 2 * 6
+    errs = {}
+    for line in lines:
+        law, rest = line.split(maxsplit=1)
+        steps = float(rest.split(":")[0].split("=")[1])
+        errs[law, steps] = float(rest.split("max ")[1].split()[0])
+    # Order 5: doubling the resolution lowers the largest error by far more than 2^2.
+    for law in ("kk", "hertz", "shc", "tti", "linear", "general"):
+        assert errs[law, 48.0] < errs[law, 24.0] / 4

@@ -22,7 +22,7 @@ from typing import NamedTuple
 from sweep.kernels._jit import jit
 from sweep.registry import PARAMETERS
 
-__all__ = ["Law", "make_law", "power_kind", "ppow", "ppow_called", "rhs", "velocity", "accel",
+__all__ = ["Law", "make_law", "power_kind", "ppow", "ppow_called", "rhs", "rhs_called", "velocity", "accel",
            "dissipated", "potential", "damping_rate", "equilibrium", "well_depth",
            "damping_ratio", "natural_frequency", "umax_undamped", "elastic_frequency",
            "in_domain", "KIND_ONE"]
@@ -144,8 +144,7 @@ def _polynomial(x, kind):
     return x * x * x
 
 
-@jit(inline="always")
-def rhs(u, w, c):
+def _rhs(u, w, c):
     """Right-hand side of (4) and of the dissipation integral: returns ``(u', w', r')``.
 
     The energy dissipated by the damper is ``q = int gamma beta u^(beta-1) v^2 dtau``; by
@@ -180,6 +179,12 @@ def rhs(u, w, c):
         pa = pb if c.alpha == c.beta else ppow(u, c.alpha, c.ka)
     v = w - c.gamma * pb
     return v, c.gtilde - pa, -c.gamma * pb * (c.gtilde - pa - c.gamma * c.beta * pd * v)
+
+
+#: :func:`_rhs` inlined: for the stages of a step, most of the march's cost.
+rhs = jit(inline="always")(_rhs)
+#: The same compiled once and called: where a march starts or jumps (once per point).
+rhs_called = jit()(_rhs)
 
 
 @jit(inline="always")

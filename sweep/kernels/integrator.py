@@ -133,7 +133,9 @@ def _negligible(s):
     return 0.1 * (s.target if s.target > 0.0 else REFINE_TARGET)
 
 
-@jit()
+# Inlined (one call site in each of solve_point and _refined): a dispatcher level costs
+# a compile of the whole march below it again.
+@jit(inline="always")
 def _solve_at(c, steps, s, budget, K, K2, Q):
     end = march(c, policy(c, steps), s.rest_tol, budget, K, K2, Q, _negligible(s))
     e, status, err, e_q, e_v = decide(c, end)
@@ -177,20 +179,17 @@ def solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
 @jit()
 def _refined(c, s, a, K, K2, Q):
     """Refinement of a point whose first march ``a`` has an indicator above the target."""
-    # Checked against a march at twice the resolution (a coarser one can still be short of
-    # the asymptotic regime, where Richardson misjudges); the budget covers every march.
-    b, a = a, _solve_at(c, 2.0 * s.steps, s, s.max_steps - a.n, K, K2, Q)
-    n = a.n + b.n
-    if a.status == _BUDGET:
-        return _kept(b, n, b.err)
-    err, floor = _richardson(a, b, 2.0)
-    done = 2.0
-    # Refine while the resolution-dependent part of the error is above the target, with a
-    # margin: near grazing the error can stall between resolutions (seen: a factor 2 from
-    # 192 to 384 steps, then 500 to 768), where Richardson's estimate falls short.
+    # Checked first against a march at twice the resolution (a coarser one can still be
+    # short of the asymptotic regime, where Richardson misjudges); the budget covers every
+    # march. Then refined while the resolution-dependent part of the error is above the
+    # target, with a margin: near grazing the error can stall between resolutions (seen: a
+    # factor 2 from 192 to 384 steps, then 500 to 768), where Richardson's estimate falls
+    # short.
     aim = REFINE_MARGIN * s.target
-    while err - floor > aim and done < MAX_REFINEMENT and n < s.max_steps:
-        f = min(max(1.25 * (err / aim) ** 0.2, 1.5), MAX_REFINEMENT / done)
+    n = a.n
+    done, f = 1.0, 2.0
+    err, floor = a.err, 0.0
+    while True:
         done *= f
         b_err = err
         b, a = a, _solve_at(c, done * s.steps, s, s.max_steps - n, K, K2, Q)
@@ -198,7 +197,9 @@ def _refined(c, s, a, K, K2, Q):
         if a.status == _BUDGET:
             return _kept(b, n, b_err)
         err, floor = _richardson(a, b, f)
-    return a.e, a.t_f, a.u_max, n, a.status, err
+        if not (err - floor > aim and done < MAX_REFINEMENT and n < s.max_steps):
+            return a.e, a.t_f, a.u_max, n, a.status, err
+        f = min(max(1.25 * (err / aim) ** 0.2, 1.5), MAX_REFINEMENT / done)
 
 
 @jit(inline="always")
@@ -209,7 +210,9 @@ def _kept(r, n, err):
     return r.e, r.t_f, r.u_max, n, r.status, err
 
 
-@jit()
+# Inlined into both kernels: a dispatcher level of its own would compile (link and emit)
+# the whole solve once more, about a second of every first call.
+@jit(inline="always")
 def _run_range(lo, hi, alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err):
     K, K2, Q = scratch()
     for i in range(lo, hi):

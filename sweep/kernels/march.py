@@ -39,7 +39,7 @@ import numpy as np
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import (accel, damping_ratio, dissipated, make_law,
-                                   potential, ppow_called, rhs, velocity)
+                                   potential, ppow_called, rhs_called, velocity)
 from sweep.kernels.creep import (ROUNDING_V, creep_constants, energy_margin, jump,
                                  near_slow_branch, never_leaves)
 from sweep.kernels.events import ON_U, ON_V, locate
@@ -83,7 +83,8 @@ def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, c):
     Returns ``(time from the step's start, dissipated energy q, velocity, re-steps used)``
     at the detachment.
     """
-    th = locate(ON_U, 0.0, u, w, Q, c, th_lo, th_hi)
+    # int(): a literal event code would compile locate once per event.
+    th = locate(int(ON_U), 0.0, u, w, Q, c, th_lo, th_hi)
     lo = th_lo * s
     hi = th_hi * s
     d = th * s
@@ -128,25 +129,34 @@ def _stationary_u(u, v, c, upward):
 @jit(inline="always")
 def _advance(u, w, v, p, K, c, n, max_steps):
     """One step of the march: size from the policy, then the damping cap judged at the
-    step's end (the step retaken, smaller, while it is exceeded). Returns the new (u, w),
-    the increment of r, the step and the steps counter."""
+    step's end (:func:`_capped`). Returns the new (u, w), the increment of r, the step and
+    the steps counter."""
     s = first_guess(u, v, p, c)
     fu0 = K[0, 0]
     fw0 = K[0, 1]
     fr0 = K[0, 2]
     u1, w1, dr = rk_step(u, w, s, K, c)
-    n += 1
     if p.capped:
-        # A load can drive the bead deep into the damper within one step: judge the cap
-        # at the step's end too and retake the step if it was exceeded (twice: slack
-        # against retaking steps for nothing).
+        return _capped(u, w, s, u1, w1, dr, fu0, fw0, fr0, p, K, c, n + 1, max_steps)
+    return u1, w1, dr, s, n + 1
+
+
+# Not inlined: only points whose damping cap can bind come here (compile time).
+@jit()
+def _capped(u, w, s, u1, w1, dr, fu0, fw0, fr0, p, K, c, n, max_steps):
+    """The step ``s`` from (u, w) that ended at (u1, w1), retaken smaller while the damping
+    cap judged at its end is exceeded: ``(u1, w1, dr, s, n)`` as :func:`_advance`. ``fu0,
+    fw0, fr0``: f at the step's start (the stages overwrote K[0] for the FSAL tableau)."""
+    # A load can drive the bead deep into the damper within one step: judge the cap at the
+    # step's end too and retake the step if it was exceeded (twice: slack against
+    # retaking steps for nothing).
+    s_end = damping_step(u1, c.beta, c.gamma, p.steps)
+    while not (s <= 2.0 * s_end and math.isfinite(u1) and math.isfinite(w1)) and n < max_steps:
+        s = s_end if s_end < 0.5 * s else 0.5 * s
+        _set_first_stage(K, fu0, fw0, fr0)
+        u1, w1, dr = rk_step(u, w, s, K, c)
+        n += 1
         s_end = damping_step(u1, c.beta, c.gamma, p.steps)
-        while not (s <= 2.0 * s_end and math.isfinite(u1) and math.isfinite(w1)) and n < max_steps:
-            s = s_end if s_end < 0.5 * s else 0.5 * s
-            _set_first_stage(K, fu0, fw0, fr0)
-            u1, w1, dr = rk_step(u, w, s, K, c)
-            n += 1
-            s_end = damping_step(u1, c.beta, c.gamma, p.steps)
     return u1, w1, dr, s, n
 
 
@@ -174,7 +184,7 @@ def _may_have_event(phase, u1, v1, w1, ubar):
 def _compression_end(u, w, r, s, Q, K, K2, c):
     """Phase 1 ends inside the step: maximum compression (v = 0). Returns its fraction of
     the step and ``u_max``."""
-    th = locate(ON_V, 0.0, u, w, Q, c, 0.0, 1.0)
+    th = locate(int(ON_V), 0.0, u, w, Q, c, 0.0, 1.0)
     um, wm, _ = _restep(u, w, r, th * s, K, K2, c)
     return th, _stationary_u(um, velocity(um, wm, c), c, False)
 
@@ -184,7 +194,7 @@ def _trough(u, w, r, s, th0, Q, K, K2, c):
     """Phase 3, v = 0 inside the step: the bead's lowest point after the swing. Returns its
     fraction of the step, the minimum of u there (> 0: the bead sticks; <= 0: it dipped
     below the floor inside the step -- grazing -- and left first) and the dissipated energy."""
-    th = locate(ON_V, 0.0, u, w, Q, c, th0, 1.0)
+    th = locate(int(ON_V), 0.0, u, w, Q, c, th0, 1.0)
     us, ws, rs = _restep(u, w, r, th * s, K, K2, c)
     vs = velocity(us, ws, c)
     return th, _stationary_u(us, vs, c, True), dissipated(us, vs, rs, c)
@@ -277,7 +287,7 @@ def _jumped(c, k, u, t, K):
     the dissipation restarts from 0 (``q = gamma v u^beta + r = 0``) and ``H = e0 - q``."""
     u, w, v, dt = jump(c, k, u)
     r = -c.gamma * v * ppow_called(u, c.beta, c.kb)
-    fu, fw, fr = rhs(u, w, c)
+    fu, fw, fr = rhs_called(u, w, c)
     _set_first_stage(K, fu, fw, fr)
     return u, w, r, v, t + dt, 0.5 * v * v + potential(u, c)
 
@@ -325,7 +335,7 @@ def _after_jump(st, u, w, r, v, t, e0):
 @jit(inline="always")
 def start(c, p, K):
     """The state at tau = 0 (u = 0, w = v = 1) with K[0] = f there."""
-    fu, fw, fr = rhs(0.0, 1.0, c)
+    fu, fw, fr = rhs_called(0.0, 1.0, c)
     _set_first_stage(K, fu, fw, fr)
     overdamped = c.gtilde > 0.0 and damping_ratio(c.alpha, c.beta, c.gamma, c.gtilde) >= 1.0
     return State(0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.5, 0.5 * (1.0 + _ENERGY_ROUNDOFF), 1, np.nan,
@@ -361,7 +371,7 @@ def _located(st, c, k, u1, w1, v1, s, n, K, K2, Q):
         n += 1
         phase = 2
     if phase == 2 and k.ubar > 0.0 and u1 < k.ubar:
-        th0 = locate(ON_U, k.ubar, u, w, Q, c, th0, 1.0)
+        th0 = locate(int(ON_U), k.ubar, u, w, Q, c, th0, 1.0)
         phase = 3
     # With g~ = 0 (u-bar = 0) the return to u-bar in phase 2 is the detachment itself.
     exiting = (phase == 3 or (phase == 2 and k.ubar == 0.0)) and u1 <= 0.0
