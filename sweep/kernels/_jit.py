@@ -154,7 +154,14 @@ FLAGS = {"error_model": "numpy", "nogil": True}
 
 
 def jit(**options):
-    """``numba.njit`` with the package's :data:`FLAGS` (for helpers compiled into kernels)."""
+    """``numba.njit`` with the package's :data:`FLAGS` (for helpers compiled into kernels).
+
+    Compile time: every dispatcher a kernel calls costs 0.1-0.3 s of its own (its machine
+    code, which includes all it calls again, and its Python wrapper), and every
+    ``inline="always"`` call site costs the callee's typing again. So a helper with one
+    call site, or on the per-step path, is inlined; one called from several places off that
+    path is compiled once and called (``benchmarks/run_all.py --only startup_compile_fresh``).
+    """
     return numba.njit(**FLAGS, **options)
 
 

@@ -100,7 +100,7 @@ def settings(steps=None, rest_tol=DEFAULT_REST_TOL, max_steps=DEFAULT_MAX_STEPS,
                     float(target) if refine else 0.0)
 
 
-@jit()
+@jit(inline="always")
 def _regime(c):
     """An outcome known without marching: ``(decided, e, t_f, u_max, status, e_err)``."""
     d = undamped(c)
@@ -176,7 +176,7 @@ def solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
     return _refined(c, s, a, K, K2, Q)
 
 
-@jit()
+@jit(inline="always")
 def _refined(c, s, a, K, K2, Q):
     """Refinement of a point whose first march ``a`` has an indicator above the target."""
     # Checked first against a march at twice the resolution (a coarser one can still be

@@ -76,7 +76,7 @@ def _restep(u, w, r, d, K, K2, c):
     return u1, w1, r + dr
 
 
-@jit()
+@jit(inline="always")
 def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, c):
     """Refine the detachment u = 0 inside ``[th_lo, th_hi]`` of the step from ``(u, w, r)``.
 

@@ -73,7 +73,7 @@ def undamped_duration(alpha, gtilde):
             * beta_fn(0.5 / alpha, 0.5) / alpha)
 
 
-@jit()
+@jit(inline="always")
 def undamped(c):
     """gamma = 0: no dissipation, so ``e = 1`` exactly (energy balance) at any load."""
     if c.gamma != 0.0:
@@ -82,7 +82,7 @@ def undamped(c):
         _OK, 0.0
 
 
-@jit()
+@jit(inline="always")
 def linear_overdamped(c):
     """alpha = beta = 1, g~ = 0, gamma >= 2: ``u = (exp(l1 t) - exp(l2 t)) / (l1 - l2)`` with
     ``l1,2 = -gamma/2 +- sqrt(gamma^2/4 - 1)`` stays positive for ever (no rebound, e = 0);
@@ -100,7 +100,7 @@ def linear_overdamped(c):
     return True, 0.0, math.inf, u_max, _AT_REST, 0.0
 
 
-@jit()
+@jit(inline="always")
 def creeps_from_start(c):
     """Heavy damping certified at tau = 0 never to leave (module docstring)."""
     if not never_leaves_from_start(c, creep_constants(c)):
@@ -108,7 +108,7 @@ def creeps_from_start(c):
     return True, 0.0, math.inf, _NAN, _AT_REST, 0.0
 
 
-@jit()
+@jit(inline="always")
 def deep_well(c):
     """Very large loads (module docstring): the large-load law (23) with its error bound."""
     if not (c.gtilde > 0.0):

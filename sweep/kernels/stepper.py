@@ -94,7 +94,7 @@ def local_error(K, h):
     return h * eu, h * ew, h * eq
 
 
-@jit()
+@jit(inline="always")
 def dense_coefficients(K, h, Q):
     """Fill ``Q[c, j] = h * sum_i K[i, c] P[i, j]`` for c = u, w (the events need no q)."""
     for c in range(2):
