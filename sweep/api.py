@@ -117,8 +117,8 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
         target (near the stick/rebound boundary, where errors are amplified by 1/e). False:
         exactly one fixed-step march per point (e.g. to measure the method's order).
     parallel : bool, optional
-        Force the parallel (True) or serial (False) kernel; by default parallel unless called
-        from a thread where numba's threading layer is unsafe. Results are bit-identical.
+        Spread the points over threads (True) or not (False); by default on the main
+        thread only (:mod:`sweep.kernels._parallel`). Results are bit-identical.
     device : {"cpu", "cuda"}, default "cpu"
         ``"cuda"``: the same per-point solve on one CUDA GPU (the optional numba-cuda,
         ``pip install 'sweep[cuda]'``), chunked with transfers overlapped; agrees with the

@@ -1,8 +1,9 @@
-"""Parallel kernels under numba's workqueue layer, launched from several Python threads.
+"""Array calls under numba's workqueue layer, made from several Python threads at once.
 
-workqueue aborts the process when parallel kernels run concurrently from several threads;
-the front ends must fall back to serial kernels off the main thread there (like numbagg),
-with results identical to the parallel ones.
+workqueue aborts the process when numba parallel regions are launched from several threads
+at once. The front ends launch none (their thread pool runs serial ``nogil`` kernels) and
+run serially off the main thread (like numbagg); results are identical to the main
+thread's parallel ones.
 """
 import os
 import subprocess

@@ -1,10 +1,18 @@
-"""When a parallel numba kernel may be launched (shared by every kernel front end).
+"""How an array call spreads over the cores (shared by every kernel front end).
 
-Like numbagg, kernels fall back to a serial loop when called from a thread pool (Dask
-workers) under numba's ``workqueue`` layer, which aborts the process when parallel kernels
-run from several Python threads at once. Results never depend on the choice.
+Kernels are serial numba functions compiled ``nogil``: a call on an array runs them on
+blocks of the points from a pool of Python threads (:func:`map_blocks`), as numba's own
+documentation does for ``nogil`` functions. Against numba's ``parallel=True`` (``prange``)
+this compiles nothing more than the serial kernel that a scalar call needs anyway (a
+parallel kernel cost 3-4 s of every first array call, the closed forms 2-3 s more), takes
+blocks dynamically (a thread that drew cheap points takes the next block), and is safe
+under every numba threading layer: no numba parallel region is ever launched, so the
+``workqueue`` layer's abort when two threads launch one at once cannot happen. Like
+numbagg, calls from other threads than the main one (Dask workers, which already keep
+every core busy) run serially. Results never depend on the choice, the thread count or the
+blocks.
 
-Owns: the parallel/serial policy. May import: nothing from ``sweep``.
+Owns: the parallel/serial policy and the thread pool. May import: nothing from ``sweep``.
 """
 from __future__ import annotations
 
@@ -12,10 +20,12 @@ import ctypes
 import os
 import sys
 import threading
+from collections.abc import Callable, Iterable
+from concurrent.futures import ThreadPoolExecutor
 
 import numba as nb
 
-__all__ = ["parallel_allowed", "preload_tbb"]
+__all__ = ["parallel_allowed", "preload_tbb", "threads", "map_blocks"]
 
 
 def preload_tbb() -> bool:
@@ -42,17 +52,23 @@ def preload_tbb() -> bool:
     return False
 
 
-def parallel_allowed() -> bool:
-    """Whether a parallel kernel may be launched from the current thread.
+def threads() -> int:
+    """Threads an array call may use: numba's setting (``NUMBA_NUM_THREADS``,
+    ``numba.set_num_threads``; all cores by default)."""
+    return nb.get_num_threads()
 
-    numba's ``workqueue`` threading layer is not thread-safe: launched from several Python
-    threads at once it aborts the process. Off the main thread the parallel kernel is used
-    only under a thread-safe layer (tbb, omp); with one numba thread it is pointless.
-    """
-    # get_num_threads() launches numba's thread pool, which fixes the threading layer:
-    # threading_layer() below is always defined.
-    if nb.get_num_threads() <= 1:
-        return False
-    if threading.current_thread() is threading.main_thread():
-        return True
-    return nb.threading_layer() in ("tbb", "omp")
+
+def parallel_allowed() -> bool:
+    """Whether an array call may spread over :func:`threads` threads: more than one, and
+    called from the main thread (a thread pool's worker runs serially, like numbagg's)."""
+    return threads() > 1 and threading.current_thread() is threading.main_thread()
+
+
+def map_blocks(run: Callable[[int, int], None], order: Iterable[int], size: int,
+               n: int) -> None:
+    """Call ``run(lo, hi)`` for the blocks ``[j size, min(n, (j + 1) size))`` with ``j`` in
+    ``order``, from :func:`threads` threads; ``run`` must release the GIL (a ``nogil``
+    kernel) for them to run at once. The first exception of a block is raised here."""
+    with ThreadPoolExecutor(max_workers=threads(), thread_name_prefix="sweep") as pool:
+        for _ in pool.map(lambda j: run(j * size, min(n, (j + 1) * size)), order):
+            pass

@@ -39,11 +39,10 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
 from sweep.kernels._jit import cached_jit
-from sweep.kernels._parallel import parallel_allowed
+from sweep.kernels._parallel import map_blocks, parallel_allowed, threads
 from sweep.kernels.contact import in_domain
 from sweep.kernels.special import (chebyshev_tables, first_order_constants, iq_at_zero,
                                    iq_chebyshev, iq_quadrature, large_gtilde_constants)
@@ -69,7 +68,11 @@ _COEF_ZERO = 9       # I(0), Q(0) (39), (40)
 
 _OK = np.int8(Status.OK)
 _INVALID = np.int8(Status.INVALID)
-_CHUNK = 1024
+#: Smallest chunk of a parallel call: the closed forms cost 3 ns to 3 us a point, a chunk's
+#: call ~20 us of Python.
+_CHUNK = 1 << 16
+#: Chunks per thread (a few, for balance where costs vary: ord2_numint by g~).
+_CHUNKS_PER_THREAD = 4
 _DEFAULT_N = 21
 
 
@@ -107,8 +110,9 @@ def _ord2(beta, gamma, i_, q_):
 
 
 @cached_jit()
-def _run_range(code, start, stop, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
-    """Evaluate points ``start .. stop-1`` serially (one chunk of the parallel kernel).
+def _kernel(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
+    """Evaluate every point serially; ``nogil``, so that
+    :func:`sweep.kernels._parallel.map_blocks` runs chunks of them at once.
 
     Constants that depend on (alpha, beta) only are recomputed when the exponents change
     from one point to the next, so uniform-exponent sweeps pay for them once per chunk; the
@@ -123,7 +127,7 @@ def _run_range(code, start, stop, alpha, beta, gamma, gtilde, n, e, status, aux1
     prev_b = math.nan
     k1 = math.nan
     k2 = math.nan
-    for i in range(start, stop):
+    for i in range(alpha.size):
         a = alpha[i]
         b = beta[i]
         g = gamma[i]
@@ -177,28 +181,24 @@ def _run_range(code, start, stop, alpha, beta, gamma, gtilde, n, e, status, aux1
             aux2[i] = x2 if good else math.nan
 
 
-@cached_jit(parallel=True)
-def _kernel_parallel(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
-    size = alpha.size
-    nchunks = (size + _CHUNK - 1) // _CHUNK
-    for c in nb.prange(nchunks):
-        _run_range(code, c * _CHUNK, min(size, (c + 1) * _CHUNK), alpha, beta, gamma, gtilde,
-                   n, e, status, aux1, aux2)
-
-
-@cached_jit()
-def _kernel_serial(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
-    _run_range(code, 0, alpha.size, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2)
-
-
 def _run(code, alpha, beta, gamma, gtilde, n, aux=True):
     size = alpha.size
     e = np.empty(size)
     status = np.empty(size, dtype=np.int8)
     aux1 = np.empty(size if aux else 0)
     aux2 = np.empty(size if aux else 0)
-    kernel = _kernel_parallel if (size > _CHUNK and parallel_allowed()) else _kernel_serial
-    kernel(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2)
+
+    def run(lo, hi):
+        a1, a2 = (aux1[lo:hi], aux2[lo:hi]) if aux else (aux1, aux2)
+        _kernel(code, alpha[lo:hi], beta[lo:hi], gamma[lo:hi], gtilde[lo:hi], n, e[lo:hi],
+                status[lo:hi], a1, a2)
+
+    chunks = min(_CHUNKS_PER_THREAD * threads(), size // _CHUNK)
+    if chunks > 1 and parallel_allowed():
+        per = -(-size // chunks)
+        map_blocks(run, range(chunks), per, size)
+    else:
+        run(0, size)
     return e, status, aux1, aux2
 
 

@@ -20,9 +20,10 @@ Per point (scaled parameters ``alpha, beta, gamma, g~``):
 ``e_err`` is an estimate of ``|e - e_true|`` (see :mod:`sweep.kernels.outcome`), calibrated
 on the test suite's references (tests/test_hard_cases.py).
 
-The parallel kernel takes blocks of contiguous points in a shuffled order: costs vary by
-orders of magnitude (sticking ends early, heavy damping runs long) and ``prange`` splits
-the range evenly. Results never depend on the thread count, block or order.
+An array call runs the serial kernel on blocks of contiguous points, in a shuffled order,
+from a pool of threads (:mod:`sweep.kernels._parallel`): costs vary by orders of magnitude
+(sticking ends early, heavy damping runs long), and each thread takes the next block when
+it is done. Results never depend on the thread count, block or order.
 
 Owns: the per-point solve and the array kernels. May import: regimes, march, outcome,
 contact, stepsize, registry, the parallel policy.
@@ -32,11 +33,10 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numba as nb
 import numpy as np
 
 from sweep.kernels._jit import cached_jit, jit
-from sweep.kernels._parallel import parallel_allowed
+from sweep.kernels._parallel import map_blocks, parallel_allowed
 from sweep.kernels.contact import in_domain, make_law
 from sweep.kernels.march import march, scratch
 from sweep.kernels.outcome import ROUNDING, decide
@@ -210,12 +210,12 @@ def _kept(r, n, err):
     return r.e, r.t_f, r.u_max, n, r.status, err
 
 
-# Inlined into both kernels: a dispatcher level of its own would compile (link and emit)
-# the whole solve once more, about a second of every first call.
-@jit(inline="always")
-def _run_range(lo, hi, alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err):
+@cached_jit()
+def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err):
+    """Every point of the arrays, serially (:func:`solve_point`); ``nogil``, so that
+    :func:`sweep.kernels._parallel.map_blocks` runs blocks of them at once."""
     K, K2, Q = scratch()
-    for i in range(lo, hi):
+    for i in range(alpha.size):
         r = solve_point(alpha[i], beta[i], gamma[i], gtilde[i], s, K, K2, Q)
         e[i] = r[0]
         t_f[i] = r[1]
@@ -225,24 +225,10 @@ def _run_range(lo, hi, alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, st
         e_err[i] = r[5]
 
 
-_BLOCK = 64
-
-
-@cached_jit(parallel=True)
-def _kernel_parallel(blocks, alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status,
-                     e_err):
-    n = alpha.size
-    for j in nb.prange(blocks.size):
-        b = blocks[j]
-        _run_range(b * _BLOCK, min(n, (b + 1) * _BLOCK), alpha, beta, gamma, gtilde,
-                   s, e, t_f, u_max, n_steps, status, e_err)
-
-
-@cached_jit()
-def _kernel_serial(blocks, alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status,
-                   e_err):
-    _run_range(0, alpha.size, alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps,
-               status, e_err)
+#: Points per block of a parallel call: ~4 ms of work at the defaults, against ~20 us of
+#: Python for the block's call.
+_BLOCK = 256
+_OUT = ("e", "t_f", "u_max", "n_steps", "status", "e_err")
 
 
 def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None):
@@ -253,12 +239,18 @@ def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None):
     dict of str -> ndarray
         One flat array per field of :func:`sweep.registry.kernel_fields`, in its dtype.
 
-    ``s`` is the :class:`Settings` (:func:`settings`); ``parallel=None`` picks the parallel
-    kernel when :func:`parallel_allowed`. (:mod:`sweep.kernels.devices` chooses between
+    ``s`` is the :class:`Settings` (:func:`settings`); ``parallel=None`` spreads the points
+    over threads when :func:`parallel_allowed`. (:mod:`sweep.kernels.devices` chooses between
     this and the CUDA kernel.)
     """
     n = alpha.size
     out = {f.name: np.empty(n, dtype=f.dtype) for f in kernel_fields()}
+    cols = [out[name] for name in _OUT]
+
+    def run(lo, hi):
+        _kernel(alpha[lo:hi], beta[lo:hi], gamma[lo:hi], gtilde[lo:hi], s,
+                *(x[lo:hi] for x in cols))
+
     if parallel is None:
         parallel = parallel_allowed()
     if parallel and n > _BLOCK:
@@ -266,11 +258,8 @@ def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None):
         # grid's heavily damped corner) is spread over the threads, while each block reads
         # and writes contiguous memory. A fixed seed keeps the schedule reproducible;
         # results never depend on it.
-        blocks = np.random.default_rng(0x5EED).permutation((n + _BLOCK - 1) // _BLOCK)
-        kernel = _kernel_parallel
+        order = np.random.default_rng(0x5EED).permutation((n + _BLOCK - 1) // _BLOCK)
+        map_blocks(run, order, _BLOCK, n)
     else:
-        blocks = np.zeros(1, dtype=np.int64)
-        kernel = _kernel_serial
-    kernel(blocks, alpha, beta, gamma, gtilde, s, out["e"], out["t_f"], out["u_max"],
-           out["n_steps"], out["status"], out["e_err"])
+        run(0, n)
     return out

@@ -94,7 +94,7 @@ def _measure_costs(methods: tuple, n: int = 20000) -> dict[str, float]:
     gamma, gtilde = 10 ** rng.uniform(-4, -1, n), 10 ** rng.uniform(-3, 1, n)
     costs = {}
     for m in methods:
-        api.cor(1.5, 1.5, gamma, gtilde, method=m)  # compile / load the parallel kernel first
+        api.cor(1.5, 1.5, gamma, gtilde, method=m)  # compile / load the kernel first
         t0 = time.perf_counter()
         api.cor(1.5, 1.5, gamma, gtilde, method=m)
         costs[m] = 1e9 * (time.perf_counter() - t0) / n

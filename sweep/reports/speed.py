@@ -34,10 +34,11 @@ Timing the closed forms
 The closed forms cost 3-20 ns per point. Timed on the 20,000 points of the common set, one
 call is 0.1-0.4 ms of work and the fixed costs around it dominate: the Python front end
 (~40 us), broadcasting scalar exponents to full arrays (two copies of 8 bytes per point)
-and, above all, the parallel launch. With numba's ``omp`` threading layer (what a virtual
-environment gets: pip's ``tbb`` puts ``libtbb.so.12`` in ``.venv/lib``, where the loader
-does not look) and the other core of a 2-core machine busy (load ~1.5), every parallel call
-waited ~8 ms for its worker thread (0.15 ms under ``tbb`` or on one thread): 20,000 points
+and, above all, the parallel launch. When array calls still ran ``prange`` kernels, with
+numba's ``omp`` threading layer (what a virtual environment got: pip's ``tbb`` puts
+``libtbb.so.12`` in ``.venv/lib``, where the loader does not look) and the other core of
+a 2-core machine busy (load ~1.5), every parallel call waited ~8 ms for its worker thread
+(0.15 ms under ``tbb`` or on one thread): 20,000 points
 in 8 ms is the 2.5 M points/s the previous version of this report printed for ``ord1``,
 against 338 M from ``benchmarks/approx_throughput.py`` (1,000,000 points, kernel called
 directly). Each closed form is therefore timed on the common set tiled until one serial call
@@ -324,7 +325,7 @@ def _closed_form_call(a, b, gamma, gtilde, method, n_closed, min_call_s):
     gt, Gt = np.tile(gamma, reps), np.tile(gtilde, reps)
     at, bt = np.full(gt.size, a), np.full(gt.size, b)
     fn = lambda: sweep.cor(at, bt, gt, Gt, method=method)  # noqa: E731
-    fn()                                                   # the parallel kernel too
+    fn()                                                   # warm, at full length
     return fn, gt.size
 
 

@@ -9,7 +9,7 @@ few chunks, whatever the design size.
 Two executors:
 
 * local (default): chunks are fed one after another, from the main thread, to the api
-  functions, which already run in parallel on all cores (numba ``prange``). The netCDF
+  functions, which already run on all cores (:mod:`sweep.kernels._parallel`). The netCDF
   writing (zlib compression) happens in one background thread, overlapping the next chunk
   (see :class:`_WriteBehind`; on 2 cores it cut a 4e6-point run of cheap approximations
   from 25 s to 17 s). Saving a chunk for resume stays synchronous: a chunk is reported done
@@ -727,8 +727,8 @@ def _chunk_points(job, start, stop):
     return dict(zip(_config.PARAMETERS, job.design.points(start, stop)))
 
 
-#: Points of the warm-up call (the first ones of the first chunk to compute). More than the
-#: kernels' serial block, so a chunk that runs the parallel kernels warms them up.
+#: Points of the warm-up call (the first ones of the first chunk to compute): compiles or
+#: loads the kernels the chunk will run.
 WARM_UP_POINTS = 256
 
 
