@@ -393,8 +393,7 @@ def prop2_IQ(alpha, beta, gtilde, dps=30):
 
         def B_over_s2(s):
             # B(u_M (1 - s^2)) / s^2 without cancellation: B(u_M) = 0, so B(u) = B(u) - B(u_M)
-            # = 2 g~ (u - u_M) - 2 (u^(a+1) - u_M^(a+1))/(a+1), and u - u_M = -u_M s^2.
-            u = um * (1 - s * s)
+            # = 2 g~ (u - u_M) - 2 (u^(a+1) - u_M^(a+1))/(a+1), with u = u_M (1 - s^2).
             if s == 0:
                 return 2 * um * (um ** a - G)
             # (u_M^(a+1) - u^(a+1)) / s^2 = u_M^(a+1) (1 - (1 - s^2)^(a+1)) / s^2
