@@ -1,13 +1,18 @@
-"""How pessimistic is e_err at the first march? The figure behind ``TOL_MARGIN``.
+"""How pessimistic is e_err at the first march? The figures behind ``TOL_MARGIN`` and
+``KAPPA_STEPS``.
 
     python benchmarks/tol_margin.py [--n 40000]
 
-For the KK, linear and general-exponent draws of ``benchmarks/run_all.py`` and tol 1e-6,
-1e-8, 1e-10, marches every point at ``tol`` without refinement and compares with the
-integrator at 500 steps and tol 1e-12 (within ~1e-13 of DOP853). Prints, per law and tol:
-the fraction of points the refinement would take (e_err > tol / TOL_MARGIN), the quantiles
-of actual error over e_err, and the largest actual error among the points left unrefined,
-over tol (must stay below 1).
+For the KK, TTI, linear and general-exponent draws of ``benchmarks/run_all.py``, marches
+every point once (no refinement) and compares with the integrator at 500 steps and tol
+1e-12 (within ~1e-13 of DOP853). Prints, per law:
+
+* at tol 1e-6, 1e-8, 1e-10 (13, 33, 83 steps per half period): the fraction of points the
+  refinement would take (e_err > tol / TOL_MARGIN), the quantiles of actual error over
+  e_err, and the largest actual error among the points left unrefined, over tol (must stay
+  below 1);
+* at fixed resolutions 16 to 192: the median and largest actual error over e_err, which
+  should not fall with the resolution (``sweep.kernels.outcome.KAPPA_STEPS``).
 """
 import argparse
 
@@ -21,8 +26,16 @@ def draws(n, rng):
     g = 10 ** rng.uniform(-4, -0.5, n)
     gt = 10 ** rng.uniform(-3, 1, n)
     yield "kk", np.full(n, 1.5), np.full(n, 1.5), g, gt
+    yield "tti", np.full(n, 1.5), np.full(n, 1.25), g, gt
     yield "linear", np.ones(n), np.ones(n), g, gt
     yield "general", rng.uniform(1, 3, n), rng.uniform(1, 3, n), g, gt
+
+
+def ratios(ref, r):
+    """Actual error and actual error over e_err where both marches rebounded."""
+    ok = (r.status == 0) & (ref.status == 0)
+    err = np.abs(r.e - ref.e)[ok]
+    return err, err / np.maximum(r.e_err[ok], 1e-300), r.e_err[ok]
 
 
 def main():
@@ -32,15 +45,16 @@ def main():
     for law, a, b, g, gt in draws(n, np.random.default_rng(0)):
         ref = sweep.integrate(a, b, g, gt, steps=500, tol=1e-12)
         for tol in (1e-6, 1e-8, 1e-10):
-            r = sweep.integrate(a, b, g, gt, tol=tol, refine=False)
-            ok = (r.status == 0) & (ref.status == 0)
-            err = np.abs(r.e - ref.e)[ok]
-            ratio = err / np.maximum(r.e_err[ok], 1e-300)
-            kept = r.e_err[ok] <= tol / TOL_MARGIN
+            err, ratio, e_err = ratios(ref, sweep.integrate(a, b, g, gt, tol=tol, refine=False))
+            kept = e_err <= tol / TOL_MARGIN
             q50, q99 = np.quantile(ratio, [0.5, 0.99])
             print(f"{law:8s} tol={tol:.0e}: refined {1 - kept.mean():.3f}, err/e_err median "
                   f"{q50:.3f} q99 {q99:.3f} max {ratio.max():.3f}; unrefined max err/tol "
                   f"{err[kept].max() / tol:.2f}")
+        for steps in (16, 48, 96, 192):
+            _, ratio, _ = ratios(ref, sweep.integrate(a, b, g, gt, steps=steps, refine=False))
+            print(f"{law:8s} steps={steps:3d}: err/e_err median {np.median(ratio):.3f} "
+                  f"max {ratio.max():.3f}")
 
 
 if __name__ == "__main__":

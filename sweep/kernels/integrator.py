@@ -138,7 +138,7 @@ def _negligible(s):
 @jit(inline="always")
 def _solve_at(c, steps, s, budget, K, K2, Q):
     end = march(c, policy(c, steps), s.rest_tol, budget, K, K2, Q, _negligible(s))
-    e, status, err, e_q, e_v = decide(c, end)
+    e, status, err, e_q, e_v = decide(c, end, steps)
     return Result(e, end.t, end.u_max, end.n, status, err, e_q, e_v)
 
 

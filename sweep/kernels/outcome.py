@@ -19,8 +19,9 @@ leaves the floor iff H is still >= 0 when it gets back to u = 0, and then ``e^2 
 Decisions (``h = 1/2 - q``, ``dq`` the estimated error of q):
 
 * exit (u = 0 reached): ``e`` is ``sqrt(1 - 2 q)``, or ``-v`` where the damping has
-  shrunk the velocity's errors or e is too small for q's rounding (:func:`cor_at_exit`); if instead ``h < -dq`` the exit is an artefact of an overshooting
-  geometry and the bead sticks.
+  shrunk the velocity's errors or e is too small for q's rounding (:func:`cor_at_exit`);
+  if instead ``h < -dq`` the exit is an artefact of an overshooting geometry and the bead
+  sticks.
 * trough (v = 0 with u > 0): if ``h > dq`` the geometry turned back short of the floor while
   the energy says the bead leaves: ``e = sqrt(2 h)`` (the dissipation on the stretch the
   march did not cover, from the trough to the floor, is bounded and added to the error);
@@ -30,8 +31,9 @@ Decisions (``h = 1/2 - q``, ``dq`` the estimated error of q):
   g~ = 0 the energy left, ``sqrt(2 h)``, bounds the e it may still leave with.
 
 The error indicator (for e, absolute) is ``dq / e`` for the balance, with
-``dq = KAPPA_Q lq + |D| / swing2`` plus a rounding floor (``lq`` the summed embedded local
-error estimates of the dissipation integral), and ``KAPPA_W lw`` plus rounding for ``-v``;
+``dq = KAPPA_Q min(1, KAPPA_STEPS / steps) lq + |D| / swing2`` plus a rounding floor (``lq``
+the summed embedded local error estimates of the dissipation integral, which fall one order
+slower than the march's error), and ``KAPPA_W lw`` plus rounding for ``-v``;
 an undecided stick/rebound gives the bound ``sqrt(2 (h + dq))``. Where it exceeds the
 refinement target, the integrator replaces it by a Richardson estimate
 (:mod:`sweep.kernels.integrator`).
@@ -50,7 +52,8 @@ from sweep.kernels.contact import potential, well_depth
 from sweep.kernels.march import CREEP, EXIT, NEGLIGIBLE, REST, SPENT, TROUGH
 from sweep.registry import Status
 
-__all__ = ["decide", "cor_at_exit", "ROUNDING", "KAPPA_Q", "KAPPA_W", "BALANCE_MIN_E2", "DAMPED_OUT"]
+__all__ = ["decide", "cor_at_exit", "ROUNDING", "KAPPA_Q", "KAPPA_W", "KAPPA_STEPS",
+           "BALANCE_MIN_E2", "DAMPED_OUT"]
 
 _OK = int(Status.OK)
 _STUCK = int(Status.STUCK)
@@ -62,10 +65,19 @@ BALANCE_MIN_E2 = 1e-20
 #: Above this damping integral the velocity gives e (see cor_at_exit).
 DAMPED_OUT = 20.0
 #: Global error of q (resp. of the velocity) per unit of the summed embedded local error
-#: estimates of the dissipation integral (resp. of w): measured 0.01-0.02 for the report's
-#: non-integer laws and up to 0.2 for the linear law near grazing; a conservative trigger.
+#: estimates of the dissipation integral (resp. of w), at resolutions up to KAPPA_STEPS:
+#: measured 0.01-0.02 for the report's non-integer laws and up to 0.2 for the linear law
+#: near grazing; a conservative trigger.
 KAPPA_Q = 0.3
 KAPPA_W = 1.5
+#: Resolution (steps per half period) above which KAPPA_Q falls like KAPPA_STEPS / steps.
+#: The embedded estimate is the error of the 4th-order solution, so its sum falls like
+#: steps^-4 while the error of the 5th-order march falls like steps^-5: at a fixed KAPPA_Q
+#: the estimate grew pessimistic in proportion to the resolution (true / e_err at most
+#: 0.26 at 13 steps, 0.054 at 83, on the KK draw). With the scaling, the largest true /
+#: e_err stays at 0.2-0.42 from 16 to 192 steps on the KK, TTI, linear and general draws
+#: (``python benchmarks/tol_margin.py``), and a third fewer points are refined at tol 1e-8.
+KAPPA_STEPS = 16.0
 #: Relative rounding of the march's energy bookkeeping (q and the defect): a floor for dq.
 ROUNDING = 4e-16
 
@@ -139,14 +151,16 @@ def _trough(c, end, h, dq):
 
 
 @jit()
-def decide(c, end):
+def decide(c, end, steps):
     """``(e, status, e_err, e_q, e_v)`` of the march's :class:`~sweep.kernels.march.Ending`
-    for the law ``c`` (module docstring): e_q and e_v are the energy balance's and the
-    velocity's values of e where the bead left (NaN where not defined)."""
+    for the law ``c`` marched at resolution ``steps`` (module docstring): e_q and e_v are
+    the energy balance's and the velocity's values of e where the bead left (NaN where not
+    defined)."""
     h = end.h
     defect = 0.5 * end.v * end.v + potential(end.u, c) - h
     swing2 = 1.0 + 2.0 * well_depth(c.alpha, c.gtilde)
-    dq = KAPPA_Q * end.lq + abs(defect) / swing2 + ROUNDING * math.sqrt(end.n + 1.0)
+    kappa = KAPPA_Q * min(1.0, KAPPA_STEPS / steps)
+    dq = kappa * end.lq + abs(defect) / swing2 + ROUNDING * math.sqrt(end.n + 1.0)
     if end.kind == EXIT:
         return _exit(c, end, h, defect, dq, swing2)
     if end.kind == TROUGH:
