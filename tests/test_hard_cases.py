@@ -162,7 +162,8 @@ def test_first_march_estimate_at_any_resolution(steps):
     m = (c["excluded"] == "") & (c["e_ref"] > 0) & (np.asarray(r.status) == Status.OK)
     err = np.abs(np.asarray(r.e) - c["e_ref"])
     under = np.flatnonzero(m & ~(err <= 2 * np.asarray(r.e_err) + c["bound"]))
-    assert not under.size, f"true error > 2 e_err at {under.size} points: {[_row(i, r) for i in under[:5]]}"
+    assert not under.size, (f"true error > 2 e_err at {under.size} points: "
+                            f"{[_row(i, r) for i in under[:5]]}")
 
 @pytest.mark.parametrize("tol", [1e-6, 1e-8, 1e-10])
 def test_tol_is_met_or_the_estimate_says_so(tol):
