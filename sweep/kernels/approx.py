@@ -68,9 +68,13 @@ _COEF_ZERO = 9       # I(0), Q(0) (39), (40)
 
 _OK = np.int8(Status.OK)
 _INVALID = np.int8(Status.INVALID)
-#: Smallest chunk of a parallel call: the closed forms cost 3 ns to 3 us a point, a chunk's
-#: call ~20 us of Python.
+#: Smallest chunk of a parallel call, against ~20 us of Python for a chunk's call: the
+#: first-order forms cost 3-30 ns a point (65,536 points: 0.2-2 ms), the second-order ones
+#: 1-4 us (quadrature or Chebyshev-Beta sums per point; 1,024 points: 1-4 ms). With one
+#: size for both, a 65,536-point chunk of a sweep ran its second-order forms on one core.
 _CHUNK = 1 << 16
+_CHUNK_COSTLY = 1 << 10
+_COSTLY = (_ORD2_NUMINT, _ORD2_APPROX, _COEF_NUMINT, _COEF_APPROX)
 #: Chunks per thread (a few, for balance where costs vary: ord2_numint by g~).
 _CHUNKS_PER_THREAD = 4
 _DEFAULT_N = 21
@@ -193,7 +197,8 @@ def _run(code, alpha, beta, gamma, gtilde, n, aux=True):
         _kernel(code, alpha[lo:hi], beta[lo:hi], gamma[lo:hi], gtilde[lo:hi], n, e[lo:hi],
                 status[lo:hi], a1, a2)
 
-    chunks = min(_CHUNKS_PER_THREAD * threads(), size // _CHUNK)
+    chunks = min(_CHUNKS_PER_THREAD * threads(),
+                 size // (_CHUNK_COSTLY if code in _COSTLY else _CHUNK))
     if chunks > 1 and parallel_allowed():
         per = -(-size // chunks)
         map_blocks(run, range(chunks), per, size)

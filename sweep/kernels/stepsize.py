@@ -125,9 +125,11 @@ MIN_STEPS = 8.0
 MAX_STEPS = 1024.0
 
 
-@jit(inline="always")
-def resolution(tol):
-    """Steps per half period for a largest abs error ``tol`` of e (error model above)."""
+def resolution(tol: float) -> float:
+    """Steps per half period for a largest abs error ``tol`` of e (error model above).
+
+    Plain Python: it runs once per call, before the kernels (jitted, it cost a 0.7 s compile
+    in every process that gave a ``tol``)."""
     steps = GRADE_STEPS * (ERROR_AT_GRADE_STEPS / tol) ** 0.2
     return min(max(steps, MIN_STEPS), MAX_STEPS)
 
