@@ -169,3 +169,17 @@ def test_error_model_script_prints_one_line_per_law_and_resolution():
     # Order 5: doubling the resolution lowers the largest error by far more than 2^2.
     for law in ("kk", "hertz", "shc", "tti", "linear", "general"):
         assert errs[law, 48.0] < errs[law, 24.0] / 4
+
+
+def test_tol_margin_script_finds_the_estimate_a_bound():
+    script = ROOT / "benchmarks" / "tol_margin.py"
+    res = subprocess.run([sys.executable, str(script), "--n", "400"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    lines = res.stdout.splitlines()
+    assert len(lines) == 4 * (3 + 4)          # 4 laws x (3 tolerances + 4 resolutions)
+    for line in lines:
+        # The largest true error over e_err: a bound at every tolerance and resolution.
+        assert float(line.split(" max ")[1].split(";")[0]) < 1.0, line
+    for line in (x for x in lines if "tol=" in x):
+        assert float(line.rsplit("max err/tol ", 1)[1]) < 1.0, line
