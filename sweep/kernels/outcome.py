@@ -67,9 +67,8 @@ BALANCE_MIN_E2 = 1e-20
 #: Above this damping integral the velocity gives e (see cor_at_exit).
 DAMPED_OUT = 20.0
 #: Global error of q (resp. of the velocity) per unit of the summed embedded local error
-#: estimates of the dissipation integral (resp. of w), at resolutions up to KAPPA_STEPS:
-#: measured 0.01-0.02 for the report's non-integer laws and up to 0.2 for the linear law
-#: near grazing; a conservative trigger.
+#: estimates of the dissipation integral (resp. of w): conservative factors, KAPPA_Q at
+#: resolutions up to KAPPA_STEPS (the measured ratios are given there).
 KAPPA_Q = 0.3
 KAPPA_W = 1.5
 #: Resolution (steps per half period) above which KAPPA_Q falls like KAPPA_STEPS / steps.
