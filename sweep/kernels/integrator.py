@@ -11,8 +11,9 @@ Per point (scaled parameters ``alpha, beta, gamma, g~``):
    boundary, where every error is amplified by about 1/e, or where the balance cannot yet
    tell a stick from a rebound) is marched again at twice the resolution: the difference
    over ``2^p - 1`` (Richardson, with the lowest order p seen before the asymptotic regime,
-   :data:`RICHARDSON_ORDER`) is the error of the finer march, which is kept. If that exceeds the target too, the point is marched
-   again at ``f = 1.25 (e_err / target)^(1/5)`` times the resolution (at most
+   :data:`RICHARDSON_ORDER`) is the error of the finer march, which is kept. If that
+   exceeds the target too, the point is marched again at ``f = 1.25 (e_err /
+   target)^(1/5)`` times the resolution (at most
    :data:`MAX_REFINEMENT` in all), and so on. A finer march that runs out of the step
    budget (a slow creep at g~ = 0 needs many steps at every resolution) is dropped: the
    last completed one is kept, with its own estimate.
