@@ -43,7 +43,8 @@ from sweep.kernels.contact import (accel, damping_ratio, dissipated, make_law,
 from sweep.kernels.creep import (ROUNDING_V, creep_constants, energy_margin, jump,
                                  near_slow_branch, never_leaves)
 from sweep.kernels.events import ON_U, ON_V, locate
-from sweep.kernels.stepper import N_DENSE, N_STAGES, dense_coefficients, local_error, rk_step
+from sweep.kernels.stepper import (N_DENSE, N_STAGES, dense_coefficients, local_error, rk_step,
+                                    rk_step_inline)
 from sweep.kernels.stepsize import (StepPolicy, damping_step, first_guess, local_policy,
                                     policy)
 
@@ -135,7 +136,7 @@ def _advance(u, w, v, p, K, c, n, max_steps):
     fu0 = K[0, 0]
     fw0 = K[0, 1]
     fr0 = K[0, 2]
-    u1, w1, dr = rk_step(u, w, s, K, c)
+    u1, w1, dr = rk_step_inline(u, w, s, K, c)
     if p.capped:
         return _capped(u, w, s, u1, w1, dr, fu0, fw0, fr0, p, K, c, n + 1, max_steps)
     return u1, w1, dr, s, n + 1
