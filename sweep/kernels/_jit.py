@@ -158,9 +158,12 @@ def jit(**options):
 
     Compile time: every dispatcher a kernel calls costs 0.1-0.3 s of its own (its machine
     code, which includes all it calls again, and its Python wrapper), and every
-    ``inline="always"`` call site costs the callee's typing again. So a helper with one
-    call site, or on the per-step path, is inlined; one called from several places off that
-    path is compiled once and called (``benchmarks/run_all.py --only startup_compile_fresh``).
+    ``inline="always"`` call site costs the callee's front end again and deep copies of
+    its IR, everything inlined into it included, whose cost grows with its blocks times
+    its variables: at each level of a nest of inlined helpers the whole subtree is copied
+    once more. So what runs per step is inlined, in as few levels as will do; what runs
+    once per point or event is compiled once and called
+    (``benchmarks/run_all.py --only startup_compile_fresh``).
     """
     return numba.njit(**FLAGS, **options)
 

@@ -106,7 +106,8 @@ def settings(steps=None, rest_tol=DEFAULT_REST_TOL, max_steps=DEFAULT_MAX_STEPS,
                     float(target) if refine else 0.0)
 
 
-@jit(inline="always")
+# Called, not inlined: once per point, and inlining it copied its IR at compile time.
+@jit()
 def _regime(c):
     """An outcome known without marching: ``(decided, e, t_f, u_max, status, e_err)``."""
     d = undamped(c)
@@ -182,7 +183,8 @@ def solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
     return _refined(c, s, a, K, K2, Q)
 
 
-@jit(inline="always")
+# Called, not inlined: a few percent of the points come here (compile time).
+@jit()
 def _refined(c, s, a, K, K2, Q):
     """Refinement of a point whose first march ``a`` has an indicator above the target."""
     # Checked first against a march at twice the resolution (a coarser one can still be

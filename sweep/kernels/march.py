@@ -127,26 +127,11 @@ def _stationary_u(u, v, c, upward):
 
 # --------------------------------------------------------------------------- one step
 
-@jit(inline="always")
-def _advance(u, w, v, p, K, c, n, max_steps):
-    """One step of the march: size from the policy, then the damping cap judged at the
-    step's end (:func:`_capped`). Returns the new (u, w), the increment of r, the step and
-    the steps counter."""
-    s = first_guess(u, v, p, c)
-    fu0 = K[0, 0]
-    fw0 = K[0, 1]
-    fr0 = K[0, 2]
-    u1, w1, dr = rk_step_inline(u, w, s, K, c)
-    if p.capped:
-        return _capped(u, w, s, u1, w1, dr, fu0, fw0, fr0, p, K, c, n + 1, max_steps)
-    return u1, w1, dr, s, n + 1
-
-
 # Not inlined: only points whose damping cap can bind come here (compile time).
 @jit()
 def _capped(u, w, s, u1, w1, dr, fu0, fw0, fr0, p, K, c, n, max_steps):
     """The step ``s`` from (u, w) that ended at (u1, w1), retaken smaller while the damping
-    cap judged at its end is exceeded: ``(u1, w1, dr, s, n)`` as :func:`_advance`. ``fu0,
+    cap judged at its end is exceeded: ``(u1, w1, dr, s, n)``, n the steps counter. ``fu0,
     fw0, fr0``: f at the step's start (the stages overwrote K[0] for the FSAL tableau)."""
     # A load can drive the bead deep into the damper within one step: judge the cap at the
     # step's end too and retake the step if it was exceeded (twice: slack against
@@ -475,7 +460,15 @@ def march(c, p, rest_tol, max_steps, K, K2, Q, e_tol=0.0):
     while True:
         if st.n >= max_steps:
             return _ending(BUDGET, st, st.t, st.u, st.v, dissipated(st.u, st.v, st.r, c), st.n)
-        u1, w1, dr, s, n = _advance(st.u, st.w, st.v, st.p, K, c, st.n, max_steps)
+        # The step (size from the policy, then the damping cap judged at the step's end),
+        # written out here: one level of inlining less for the stages (compile time).
+        s = first_guess(st.u, st.v, st.p, c)
+        fu0, fw0, fr0 = K[0, 0], K[0, 1], K[0, 2]
+        u1, w1, dr = rk_step_inline(st.u, st.w, s, K, c)
+        n = st.n + 1
+        if st.p.capped:
+            u1, w1, dr, s, n = _capped(st.u, st.w, s, u1, w1, dr, fu0, fw0, fr0, st.p, K, c,
+                                       n, max_steps)
         st, end = finish_step(st, c, k, u1, w1, dr, s, n, K, K2, Q, rest_tol, e_tol)
         if end.kind != GOING:
             return end

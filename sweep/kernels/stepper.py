@@ -16,10 +16,10 @@ from __future__ import annotations
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import rhs
+from sweep.kernels.contact import rhs, rhs_called
 from sweep.kernels.tableau import DORMAND_PRINCE_54
 
-__all__ = ["rk_step", "rk_step_inline", "rk_stage", "rk_combine", "local_error",
+__all__ = ["rk_step", "rk_step_inline", "rk_stage", "stage_point", "rk_combine", "local_error",
            "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
 
 _T = DORMAND_PRINCE_54
@@ -32,22 +32,32 @@ N_DENSE = _P.shape[1]
 
 
 @jit(inline="always")
-def rk_stage(i, u, w, h, K, c):
-    """Stage ``i >= 1`` of a step ``h`` from ``(u, w)``: fills ``K[i]`` from ``K[0..i-1]``.
-
-    Apart from :func:`rk_combine` so that a retaken step (the damping cap) and any driver
-    that interleaves stages of several points share the same arithmetic.
-    """
+def stage_point(i, u, w, h, K):
+    """The state where stage ``i >= 1`` of a step ``h`` from ``(u, w)`` evaluates f:
+    ``(u, w) + h sum_j A[i, j] K[j]`` over the stages ``j < i`` already in ``K``."""
     du = 0.0
     dw = 0.0
     for j in range(i):
         a = _A[i, j]
         du += a * K[j, 0]
         dw += a * K[j, 1]
-    fu, fw, fq = rhs(u + h * du, w + h * dw, c)
+    return u + h * du, w + h * dw
+
+
+@jit(inline="always")
+def _store(K, i, fu, fw, fq):
     K[i, 0] = fu
     K[i, 1] = fw
     K[i, 2] = fq
+
+
+@jit(inline="always")
+def rk_stage(i, u, w, h, K, c):
+    """Stage ``i >= 1`` of a step ``h`` from ``(u, w)``: fills ``K[i]`` from ``K[0..i-1]``
+    (for drivers that interleave the stages of several points, benchmarks/lanes.py)."""
+    ui, wi = stage_point(i, u, w, h, K)
+    fu, fw, fq = rhs(ui, wi, c)
+    _store(K, i, fu, fw, fq)
 
 
 @jit(inline="always")
@@ -66,25 +76,35 @@ def rk_combine(u, w, h, K):
     return u + h * du, w + h * dw, h * dq
 
 
-def _rk_step(u, w, h, K, c):
-    """Advance ``(u, w)`` by one step ``h`` of the contact law ``c`` (a ``Law``); returns
-    ``(u_new, w_new, dr)`` (:func:`rk_combine`).
+def _step_with(f):
+    """The Runge-Kutta step evaluating the right-hand side with ``f`` (:func:`rk_step`)."""
 
-    ``K[0]`` must hold ``f(u, w)`` on entry (first-same-as-last); on exit ``K`` holds all
-    stages, ``K[-1] = f(u_new, w_new)`` for the FSAL tableau.
-    """
-    for i in range(1, N_STAGES):
-        rk_stage(i, u, w, h, K, c)
-    return rk_combine(u, w, h, K)
+    def step(u, w, h, K, c):
+        """Advance ``(u, w)`` by one step ``h`` of the contact law ``c`` (a ``Law``);
+        returns ``(u_new, w_new, dr)`` (:func:`rk_combine`).
+
+        ``K[0]`` must hold ``f(u, w)`` on entry (first-same-as-last); on exit ``K`` holds
+        all stages, ``K[-1] = f(u_new, w_new)`` for the FSAL tableau.
+        """
+        # The stage written out (not rk_stage): each level of inlining copies the
+        # right-hand side's IR once more at compile time.
+        for i in range(1, N_STAGES):
+            ui, wi = stage_point(i, u, w, h, K)
+            fu, fw, fq = f(ui, wi, c)
+            _store(K, i, fu, fw, fq)
+        return rk_combine(u, w, h, K)
+
+    return step
 
 
-#: The step compiled once and called: for the rare re-steps (event location, the damping
-#: cap's retaken steps), where inlining would compile the seven stages at every call site.
-rk_step = jit()(_rk_step)
-#: The same inlined into its one caller, the march's step: 25-30% less time per step (KK,
-#: SHC; 162 -> 120 ns on one core, the stages' results no longer cross a call boundary)
-#: for about 3 s more of first compile.
-rk_step_inline = jit(inline="always")(_rk_step)
+#: The step compiled once and called, with the right-hand side called too: for the rare
+#: re-steps (event location, the damping cap's retaken steps), where inlining either would
+#: compile the seven stages' powers at every call site for no speed.
+rk_step = jit()(_step_with(rhs_called))
+#: The step with its right-hand side inlined, itself inlined into its one caller, the
+#: march's step: 25-30% less time per step (KK, SHC; 162 -> 120 ns on one core, the stages'
+#: results no longer cross a call boundary) for about 3 s more of first compile.
+rk_step_inline = jit(inline="always")(_step_with(rhs))
 
 
 @jit(inline="always")

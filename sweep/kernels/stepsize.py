@@ -147,7 +147,8 @@ class StepPolicy(NamedTuple):
     omega: float      # the elastic frequency the base step h was set for (at u_M)
 
 
-@jit(inline="always")
+# Called, not inlined: once per march (compile time).
+@jit()
 def policy(c, steps):
     """The :class:`StepPolicy` of the point with contact law ``c`` at resolution ``steps``."""
     um = umax_undamped(c.alpha, c.gtilde)
@@ -180,7 +181,8 @@ def _base(u, p, c):
     return p.h * scale, p.s_min * scale
 
 
-@jit(inline="always")
+# Called, not inlined: only points whose damping cap can bind come here (compile time).
+@jit()
 def _capped_step(u, v, s, p, c):
     """The largest step up to s within the damping cap judged where the step may take the
     bead (speed and load push it deeper): the fixed point of ``s = cap(u(s))``, approached
