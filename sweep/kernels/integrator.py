@@ -162,8 +162,7 @@ def _richardson(fine, coarse, ratio):
     return abs(fine.e - coarse.e) / (ratio ** RICHARDSON_ORDER - 1.0) + floor, floor
 
 
-@jit()
-def solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
+def _solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
     """Numerical CoR of one point: ``(e, t_f, u_max, n_steps, status, e_err)``.
 
     ``s`` is the :class:`Settings`; ``K``, ``K2``, ``Q`` are scratch arrays
@@ -183,8 +182,14 @@ def solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
     return _refined(c, s, a, K, K2, Q)
 
 
-# Called, not inlined: a few percent of the points come here (compile time).
-@jit()
+#: The per-point solve compiled once, for callers of single points (the CUDA kernel, tests).
+solve_point = jit()(_solve_point)
+#: The same inlined into the array kernel: one dispatcher level less, whose machine code
+#: (the whole march again, linked in) numba would emit once more (compile time).
+_solve_point_inline = jit(inline="always")(_solve_point)
+
+
+@jit(inline="always")
 def _refined(c, s, a, K, K2, Q):
     """Refinement of a point whose first march ``a`` has an indicator above the target."""
     # Checked first against a march at twice the resolution (a coarser one can still be
@@ -224,7 +229,7 @@ def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err
     :func:`sweep.kernels._parallel.map_blocks` runs blocks of them at once."""
     K, K2, Q = scratch()
     for i in range(alpha.size):
-        r = solve_point(alpha[i], beta[i], gamma[i], gtilde[i], s, K, K2, Q)
+        r = _solve_point_inline(alpha[i], beta[i], gamma[i], gtilde[i], s, K, K2, Q)
         e[i] = r[0]
         t_f[i] = r[1]
         u_max[i] = r[2]
