@@ -183,3 +183,15 @@ def test_tol_margin_script_finds_the_estimate_a_bound():
         assert float(line.split(" max ")[1].split(";")[0]) < 1.0, line
     for line in (x for x in lines if "tol=" in x):
         assert float(line.rsplit("max err/tol ", 1)[1]) < 1.0, line
+
+
+def test_step_cost_script_fits_a_cost_per_step():
+    script = ROOT / "benchmarks" / "step_cost.py"
+    res = subprocess.run([sys.executable, str(script), "--n", "3000", "--repeat", "1"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    line = res.stdout.strip()
+    assert float(line.split(": ")[1].split(" ns per step")[0]) > 0.0, line
+    n48, n192 = (float(x) for x in line.split("(")[1].split(" steps per point")[0].split(" and "))
+    # Four times the resolution: about four times the steps (graded zone and events aside).
+    assert 3.0 < n192 / n48 < 4.5, line
