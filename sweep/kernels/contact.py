@@ -22,7 +22,8 @@ from typing import NamedTuple
 from sweep.kernels._jit import jit
 from sweep.registry import PARAMETERS
 
-__all__ = ["Law", "make_law", "power_kind", "ppow", "ppow_called", "rhs", "rhs_called",
+__all__ = ["Law", "make_law", "put_law", "law_at",
+           "power_kind", "ppow", "ppow_called", "rhs", "rhs_called",
            "velocity", "accel", "dissipated", "potential", "damping_rate", "equilibrium",
            "well_depth", "damping_ratio", "natural_frequency", "umax_undamped",
            "elastic_frequency", "in_domain", "KIND_ONE"]
@@ -89,6 +90,28 @@ def make_law(alpha, beta, gamma, gtilde):
     """The :class:`Law` of a point (its power codes computed once)."""
     return Law(alpha, beta, gamma, gtilde, power_kind(alpha), power_kind(beta),
                power_kind(beta - 1.0), _integer(alpha) and _integer(beta))
+
+
+@jit(inline="always")
+def put_law(F, I, row, c):
+    """Store the :class:`Law` ``c`` in ``row`` of ``F`` (float64, 4 columns: the exponents,
+    damping and load) and ``I`` (int64, 4 columns: the power codes and ``smooth``), for
+    drivers that hold several points' laws in arrays (:func:`law_at` reads it back)."""
+    F[row, 0] = c.alpha
+    F[row, 1] = c.beta
+    F[row, 2] = c.gamma
+    F[row, 3] = c.gtilde
+    I[row, 0] = c.ka
+    I[row, 1] = c.kb
+    I[row, 2] = c.kd
+    I[row, 3] = 1 if c.smooth else 0
+
+
+@jit(inline="always")
+def law_at(F, I, row):
+    """The :class:`Law` stored in ``row`` of ``F`` and ``I`` by :func:`put_law`."""
+    return Law(F[row, 0], F[row, 1], F[row, 2], F[row, 3], I[row, 0], I[row, 1], I[row, 2],
+               I[row, 3] != 0)
 
 
 @jit(inline="always")

@@ -39,6 +39,7 @@ import numpy as np
 from sweep.kernels._jit import cached_jit, jit
 from sweep.kernels._parallel import map_blocks, parallel_allowed
 from sweep.kernels.contact import in_domain, make_law
+from sweep.kernels.lanes import N_ENDING, ending_at, march_lanes
 from sweep.kernels.march import march, scratch
 from sweep.kernels.outcome import ROUNDING, decide
 from sweep.kernels.regimes import creeps_from_start, deep_well, linear_overdamped, undamped
@@ -140,13 +141,19 @@ def _negligible(s):
     return 0.1 * (s.target if s.target > 0.0 else REFINE_TARGET)
 
 
+@jit(inline="always")
+def _decided(c, end, steps):
+    """The :class:`Result` of a march that ended with ``end`` at resolution ``steps``."""
+    e, status, err, e_q, e_v = decide(c, end, steps)
+    return Result(e, end.t, end.u_max, end.n, status, err, e_q, e_v)
+
+
 # Inlined (one call site in each of solve_point and _refined): a dispatcher level costs
 # a compile of the whole march below it again.
 @jit(inline="always")
 def _solve_at(c, steps, s, budget, K, K2, Q):
-    end = march(c, policy(c, steps), s.rest_tol, budget, K, K2, Q, _negligible(s))
-    e, status, err, e_q, e_v = decide(c, end, steps)
-    return Result(e, end.t, end.u_max, end.n, status, err, e_q, e_v)
+    return _decided(c, march(c, policy(c, steps), s.rest_tol, budget, K, K2, Q,
+                             _negligible(s)), steps)
 
 
 @jit(inline="always")
@@ -162,6 +169,25 @@ def _richardson(fine, coarse, ratio):
     return abs(fine.e - coarse.e) / (ratio ** RICHARDSON_ORDER - 1.0) + floor, floor
 
 
+@jit(inline="always")
+def _without_march(alpha, beta, gamma, gtilde):
+    """``(decided, (e, t_f, u_max, n_steps, status, e_err))`` of a point that needs no
+    march: invalid input, or an outcome known in closed form (:func:`_regime`)."""
+    if not in_domain(alpha, beta, gamma, gtilde):
+        return True, (np.nan, np.nan, np.nan, 0, _INVALID, np.nan)
+    d = _regime(make_law(alpha, beta, gamma, gtilde))
+    return d[0], (d[1], d[2], d[3], 0, d[4], d[5])
+
+
+@jit(inline="always")
+def _after_march(c, s, a, K, K2, Q):
+    """``(e, t_f, u_max, n_steps, status, e_err)`` of a point whose first march gave the
+    :class:`Result` ``a``: ``a`` itself, or refined where its indicator exceeds the target."""
+    if not (s.target > 0.0 and a.err > s.target and a.status != _BUDGET):
+        return a.e, a.t_f, a.u_max, a.n, a.status, a.err
+    return _refined(c, s, a, K, K2, Q)
+
+
 def _solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
     """Numerical CoR of one point: ``(e, t_f, u_max, n_steps, status, e_err)``.
 
@@ -170,23 +196,15 @@ def _solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
     checked against a march at twice the resolution (Richardson); while that error
     still exceeds the target, it is marched again, finer (module docstring).
     """
-    if not in_domain(alpha, beta, gamma, gtilde):
-        return np.nan, np.nan, np.nan, 0, _INVALID, np.nan
+    decided, r = _without_march(alpha, beta, gamma, gtilde)
+    if decided:
+        return r
     c = make_law(alpha, beta, gamma, gtilde)
-    d = _regime(c)
-    if d[0]:
-        return d[1], d[2], d[3], 0, d[4], d[5]
-    a = _solve_at(c, s.steps, s, s.max_steps, K, K2, Q)
-    if not (s.target > 0.0 and a.err > s.target and a.status != _BUDGET):
-        return a.e, a.t_f, a.u_max, a.n, a.status, a.err
-    return _refined(c, s, a, K, K2, Q)
+    return _after_march(c, s, _solve_at(c, s.steps, s, s.max_steps, K, K2, Q), K, K2, Q)
 
 
 #: The per-point solve compiled once, for callers of single points (the CUDA kernel, tests).
 solve_point = jit()(_solve_point)
-#: The same inlined into the array kernel: one dispatcher level less, whose machine code
-#: (the whole march again, linked in) numba would emit once more (compile time).
-_solve_point_inline = jit(inline="always")(_solve_point)
 
 
 @jit(inline="always")
@@ -225,17 +243,34 @@ def _kept(r, n, err):
 
 @cached_jit()
 def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err):
-    """Every point of the arrays, serially (:func:`solve_point`); ``nogil``, so that
-    :func:`sweep.kernels._parallel.map_blocks` runs blocks of them at once."""
-    K, K2, Q = scratch()
+    """Every point of the arrays, serially: what :func:`solve_point` gives each, with the
+    first marches of all points run :data:`sweep.kernels.lanes.LANES` at a time
+    (:func:`sweep.kernels.lanes.march_lanes`, bit-identical to one point's march); ``nogil``,
+    so that :func:`sweep.kernels._parallel.map_blocks` runs blocks of them at once."""
+    out = (e, t_f, u_max, n_steps, status, e_err)
+    todo = np.empty(alpha.size, np.int64)
+    m = 0
     for i in range(alpha.size):
-        r = _solve_point_inline(alpha[i], beta[i], gamma[i], gtilde[i], s, K, K2, Q)
-        e[i] = r[0]
-        t_f[i] = r[1]
-        u_max[i] = r[2]
-        n_steps[i] = r[3]
-        status[i] = r[4]
-        e_err[i] = r[5]
+        decided, r = _without_march(alpha[i], beta[i], gamma[i], gtilde[i])
+        if decided:
+            _put(out, i, r)
+        else:
+            todo[m] = i
+            m += 1
+    todo = todo[:m]
+    ends = np.empty((m, N_ENDING))
+    march_lanes(alpha, beta, gamma, gtilde, todo, np.full(m, s.steps),
+                np.full(m, s.max_steps, np.int64), s.rest_tol, _negligible(s), ends)
+    K, K2, Q = scratch()
+    for j in range(m):
+        i = todo[j]
+        c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
+        _put(out, i, _after_march(c, s, _decided(c, ending_at(ends, j), s.steps), K, K2, Q))
+
+
+@jit(inline="always")
+def _put(out, i, r):
+    out[0][i], out[1][i], out[2][i], out[3][i], out[4][i], out[5][i] = r
 
 
 #: Points per block of a parallel call: ~4 ms of work at the defaults, against ~20 us of

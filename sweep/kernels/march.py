@@ -48,8 +48,9 @@ from sweep.kernels.stepper import (N_DENSE, N_STAGES, dense_coefficients, local_
 from sweep.kernels.stepsize import (StepPolicy, damping_step, first_guess, local_policy,
                                     policy)
 
-__all__ = ["Ending", "State", "march", "march_point", "start", "finish_step", "EXIT",
-           "TROUGH", "SPENT", "REST", "BUDGET", "CREEP", "NEGLIGIBLE", "GOING", "scratch"]
+__all__ = ["Ending", "State", "march", "march_point", "start", "finish_step", "after_stages",
+           "out_of_budget", "EXIT", "TROUGH", "SPENT", "REST", "BUDGET", "CREEP", "NEGLIGIBLE",
+           "GOING", "scratch"]
 
 # Relative roundoff in the dissipated energy q (a sum of positive terms): the energy rule
 # waits until q exceeds the initial energy 1/2 by more than it.
@@ -450,6 +451,26 @@ def finish_step(st, c, k, u1, w1, dr, s, n, K, K2, Q, rest_tol, e_tol):
     return _rules(st, c, k, K, rest_tol, e_tol)
 
 
+@jit(inline="always")
+def out_of_budget(st, c):
+    """The :class:`Ending` of a march whose step budget is spent (BUDGET)."""
+    return _ending(BUDGET, st, st.t, st.u, st.v, dissipated(st.u, st.v, st.r, c), st.n)
+
+
+@jit(inline="always")
+def after_stages(st, c, k, s, u1, w1, dr, K, K2, Q, rest_tol, e_tol, max_steps):
+    """A step of size ``s`` from ``st`` whose stages are in ``K`` (``u1, w1, dr`` their
+    result): the damping cap judged at its end (the step retaken smaller where exceeded),
+    then :func:`finish_step`. Returns ``(state, Ending)``. Shared by :func:`march` and the
+    multi-point driver (:mod:`sweep.kernels.lanes`), which form the stages differently."""
+    n = st.n + 1
+    if st.p.capped:
+        # The stages leave K[0] (f at the step's start) as it was.
+        u1, w1, dr, s, n = _capped(st.u, st.w, s, u1, w1, dr, K[0, 0], K[0, 1], K[0, 2], st.p,
+                                   K, c, n, max_steps)
+    return finish_step(st, c, k, u1, w1, dr, s, n, K, K2, Q, rest_tol, e_tol)
+
+
 @jit()
 def march(c, p, rest_tol, max_steps, K, K2, Q, e_tol=0.0):
     """The three phases of Algorithm 1 for the law ``c`` with the step policy ``p``: the
@@ -459,17 +480,12 @@ def march(c, p, rest_tol, max_steps, K, K2, Q, e_tol=0.0):
     st = start(c, p, K)
     while True:
         if st.n >= max_steps:
-            return _ending(BUDGET, st, st.t, st.u, st.v, dissipated(st.u, st.v, st.r, c), st.n)
+            return out_of_budget(st, c)
         # The step (size from the policy, then the damping cap judged at the step's end),
         # written out here: one level of inlining less for the stages (compile time).
         s = first_guess(st.u, st.v, st.p, c)
-        fu0, fw0, fr0 = K[0, 0], K[0, 1], K[0, 2]
         u1, w1, dr = rk_step_inline(st.u, st.w, s, K, c)
-        n = st.n + 1
-        if st.p.capped:
-            u1, w1, dr, s, n = _capped(st.u, st.w, s, u1, w1, dr, fu0, fw0, fr0, st.p, K, c,
-                                       n, max_steps)
-        st, end = finish_step(st, c, k, u1, w1, dr, s, n, K, K2, Q, rest_tol, e_tol)
+        st, end = after_stages(st, c, k, s, u1, w1, dr, K, K2, Q, rest_tol, e_tol, max_steps)
         if end.kind != GOING:
             return end
 

@@ -16,10 +16,11 @@ from __future__ import annotations
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import rhs, rhs_called
+from sweep.kernels.contact import law_at, rhs, rhs_called
 from sweep.kernels.tableau import DORMAND_PRINCE_54
 
-__all__ = ["rk_step", "rk_step_inline", "rk_stage", "stage_point", "rk_combine", "local_error",
+__all__ = ["rk_step", "rk_step_inline", "rk_step_lanes",
+           "rk_stage", "stage_point", "rk_combine", "local_error",
            "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
 
 _T = DORMAND_PRINCE_54
@@ -32,16 +33,60 @@ N_DENSE = _P.shape[1]
 
 
 @jit(inline="always")
-def stage_point(i, u, w, h, K):
-    """The state where stage ``i >= 1`` of a step ``h`` from ``(u, w)`` evaluates f:
-    ``(u, w) + h sum_j A[i, j] K[j]`` over the stages ``j < i`` already in ``K``."""
-    du = 0.0
-    dw = 0.0
-    for j in range(i):
-        a = _A[i, j]
-        du += a * K[j, 0]
-        dw += a * K[j, 1]
-    return u + h * du, w + h * dw
+def _one(K, j, c, lane):
+    return K[j, c]
+
+
+@jit(inline="always")
+def _lane(K, j, c, lane):
+    # Indexed in place, not through the view K[lane]: a view costs two atomic reference
+    # count updates, more than a stage (sweep.kernels.lanes).
+    return K[lane, j, c]
+
+
+def _stage_point_of(at):
+    """:func:`stage_point` reading the stages through ``at(K, j, component, lane)``."""
+
+    def stage_point(i, u, w, h, K, lane=0):
+        """The state where stage ``i >= 1`` of a step ``h`` from ``(u, w)`` evaluates f:
+        ``(u, w) + h sum_j A[i, j] K[j]`` over the stages ``j < i`` already in ``K`` (for a
+        three-dimensional K, those of lane ``lane``: ``K[lane, j]``)."""
+        du = 0.0
+        dw = 0.0
+        for j in range(i):
+            a = _A[i, j]
+            du += a * at(K, j, 0, lane)
+            dw += a * at(K, j, 1, lane)
+        return u + h * du, w + h * dw
+
+    return stage_point
+
+
+def _combine_of(at):
+    """:func:`rk_combine` reading the stages through ``at(K, j, component, lane)``."""
+
+    def rk_combine(u, w, h, K, lane=0):
+        """The step's result from its stages: ``(u_new, w_new, dr)``, with ``dr`` the
+        increment of the dissipation integral r (returned alone so that the caller can sum
+        it with compensation); for a three-dimensional K, of lane ``lane``'s stages."""
+        du = 0.0
+        dw = 0.0
+        dq = 0.0
+        for j in range(N_STAGES):
+            b = _B[j]
+            du += b * at(K, j, 0, lane)
+            dw += b * at(K, j, 1, lane)
+            dq += b * at(K, j, 2, lane)
+        return u + h * du, w + h * dw, h * dq
+
+    return rk_combine
+
+
+#: One point's stages ``K[j]``, and the lanes' ``K[lane, j]`` (the same arithmetic).
+stage_point = jit(inline="always")(_stage_point_of(_one))
+rk_combine = jit(inline="always")(_combine_of(_one))
+_stage_point_lane = jit(inline="always")(_stage_point_of(_lane))
+_combine_lane = jit(inline="always")(_combine_of(_lane))
 
 
 @jit(inline="always")
@@ -58,22 +103,6 @@ def rk_stage(i, u, w, h, K, c):
     ui, wi = stage_point(i, u, w, h, K)
     fu, fw, fq = rhs(ui, wi, c)
     _store(K, i, fu, fw, fq)
-
-
-@jit(inline="always")
-def rk_combine(u, w, h, K):
-    """The step's result from its stages: ``(u_new, w_new, dr)``, with ``dr`` the increment
-    of the dissipation integral r (returned alone so that the caller can sum it with
-    compensation)."""
-    du = 0.0
-    dw = 0.0
-    dq = 0.0
-    for j in range(N_STAGES):
-        b = _B[j]
-        du += b * K[j, 0]
-        dw += b * K[j, 1]
-        dq += b * K[j, 2]
-    return u + h * du, w + h * dw, h * dq
 
 
 def _step_with(f):
@@ -105,6 +134,28 @@ rk_step = jit()(_step_with(rhs_called))
 #: march's step: 25-30% less time per step (KK, SHC; 162 -> 120 ns on one core, the stages'
 #: results no longer cross a call boundary) for about 3 s more of first compile.
 rk_step_inline = jit(inline="always")(_step_with(rhs))
+
+
+@jit(inline="always")
+def rk_step_lanes(u, w, h, K, LF, LI, live, y):
+    """:func:`rk_step` for several points at once: lane ``l`` (where ``live[l]``) steps
+    ``(u[l], w[l])`` by ``h[l]`` with the law in row ``l`` of ``LF, LI``
+    (:func:`sweep.kernels.contact.law_at`), its stages in ``K[l]`` (``K[l, 0]`` = f at the
+    start on entry), its ``(u_new, w_new, dr)`` in ``y[l]``.
+
+    Each stage is formed for every lane before the next: the lanes' chains of dependent
+    operations (each stage waits on the power of u of the one before) overlap, where one
+    point's chain leaves the core waiting on latency (``benchmarks/lanes.py``). Per lane
+    the arithmetic is :func:`rk_step`'s, operation for operation.
+    """
+    for i in range(1, N_STAGES):
+        for l in range(live.size):
+            if live[l]:
+                ui, wi = _stage_point_lane(i, u[l], w[l], h[l], K, l)
+                K[l, i, 0], K[l, i, 1], K[l, i, 2] = rhs(ui, wi, law_at(LF, LI, l))
+    for l in range(live.size):
+        if live[l]:
+            y[l, 0], y[l, 1], y[l, 2] = _combine_lane(u[l], w[l], h[l], K, l)
 
 
 @jit(inline="always")

@@ -1,0 +1,264 @@
+"""Several points marched at once, their Runge-Kutta stages interleaved (the array kernels' march).
+
+One point's march is a chain of dependent operations: each of a step's seven stages waits on
+the power of u of the one before, so a core marching one point waits on latency most of the
+time (``python benchmarks/lanes.py``). :func:`march_lanes` marches :data:`LANES` points
+together: every stage is formed for all lanes before the next
+(:func:`sweep.kernels.stepper.rk_step_lanes`), so that the lanes' independent chains
+overlap, and everything else of a step -- its size, the damping cap, the events, the
+stopping rules -- is the one-point march's own code (:func:`sweep.kernels.march.first_guess`,
+:func:`sweep.kernels.march.after_stages`), run per lane. A lane whose march has ended takes
+the next point.
+
+Per point the operations are exactly those of :func:`sweep.kernels.march.march`, in the same
+order: the Endings are bit-identical to it whatever the other lanes hold
+(``tests/test_lanes.py``).
+
+A lane's march between two steps is a :class:`~sweep.kernels.march.State`; it is kept in
+the rows of a few arrays (:class:`Lanes`) and read back into the named tuple for each step.
+
+Owns: the multi-point driver and the layout of its lanes. May import: contact, creep,
+stepper, stepsize, march.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numba
+import numpy as np
+from numba.core import types
+from numba.extending import intrinsic
+
+from sweep.kernels._jit import jit
+from sweep.kernels.contact import law_at, make_law, put_law
+from sweep.kernels.creep import Creep, creep_constants
+from sweep.kernels.march import (GOING, Ending, State, after_stages, out_of_budget, scratch,
+                                 start)
+from sweep.kernels.stepper import N_STAGES, rk_step_lanes
+from sweep.kernels.stepsize import StepPolicy, first_guess, policy
+
+__all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
+
+#: Points marched at once. 8: the stages of eight lanes fill the core's out-of-order window
+#: (KK stages: 74 ns a step for one point, about 25-30 ns a point for eight).
+LANES = 8
+#: Columns of an Ending stored in a row (:func:`ending_at`).
+N_ENDING = 9
+# Columns of a lane's state floats (SF) and ints (SI): the State's fields and its policy's.
+_T, _R, _RC, _V, _E0, _QS, _UMAX, _LW, _LQ, _H, _RHO, _SMIN, _STEPS, _OMEGA = range(14)
+_PHASE, _N, _EP1, _GRADED, _CAPPED, _LOCAL = range(6)
+
+
+class Lanes(NamedTuple):
+    """The lanes of :func:`march_lanes`, one row (or element) per lane."""
+
+    point: np.ndarray   # int64: entry of ``todo`` the lane marches
+    live: np.ndarray    # bool: the lane marches a point
+    LF: np.ndarray      # float64 (LANES, 4), LI: int64 (LANES, 4): laws (contact.put_law)
+    LI: np.ndarray
+    CR: np.ndarray      # float64 (LANES, 7): creep constants (Creep's fields)
+    SF: np.ndarray      # float64 (LANES, 14): state and policy floats (columns above)
+    SI: np.ndarray      # int64 (LANES, 6): state and policy ints and flags
+    u: np.ndarray       # float64: the state's u and w, which the stages read
+    w: np.ndarray
+    h: np.ndarray       # float64: the step about to be taken
+    y: np.ndarray       # float64 (LANES, 3): its (u_new, w_new, dr)
+    K: np.ndarray       # float64 (LANES, N_STAGES, 3): each lane's stages
+
+
+@intrinsic
+def _data(typingctx, arr):
+    """Pointer to an array's first element."""
+    def codegen(context, builder, signature, args):
+        return context.make_array(signature.args[0])(context, builder, args[0]).data
+    return types.CPointer(arr.dtype)(arr), codegen
+
+
+@jit(inline="always")
+def _borrowed(a):
+    """``a`` without ownership: numba updates an array's reference count (an atomic
+    operation) wherever its variable is copied, at every inlined call level; in the lanes'
+    loop, where nothing waits on latency to hide them, those updates took 70% of the time.
+    A view without a memory record skips them. The owner must outlive it."""
+    return numba.carray(_data(a), a.shape)
+
+
+@jit(inline="always")
+def _borrow(ln):
+    b = _borrowed
+    return Lanes(b(ln.point), b(ln.live), b(ln.LF), b(ln.LI), b(ln.CR), b(ln.SF), b(ln.SI),
+                 b(ln.u), b(ln.w), b(ln.h), b(ln.y), b(ln.K))
+
+
+@jit(inline="always")
+def _lanes():
+    return Lanes(np.full(LANES, -1, np.int64), np.zeros(LANES, np.bool_),
+                 np.empty((LANES, 4)), np.empty((LANES, 4), np.int64), np.empty((LANES, 7)),
+                 np.empty((LANES, 14)), np.empty((LANES, 6), np.int64), np.empty(LANES),
+                 np.empty(LANES), np.empty(LANES), np.empty((LANES, 3)),
+                 np.empty((LANES, N_STAGES, 3)))
+
+
+# Rows are indexed in place, never taken as views (a view is one more array to count).
+@jit(inline="always")
+def _state(ln, l):
+    F = ln.SF
+    I = ln.SI
+    p = StepPolicy(F[l, _H], F[l, _RHO], F[l, _SMIN], F[l, _STEPS], I[l, _GRADED] != 0,
+                   I[l, _CAPPED] != 0, I[l, _LOCAL] != 0, F[l, _OMEGA])
+    return State(F[l, _T], ln.u[l], ln.w[l], F[l, _R], F[l, _RC], F[l, _V], F[l, _E0],
+                 F[l, _QS], I[l, _PHASE], F[l, _UMAX], I[l, _N], F[l, _LW], F[l, _LQ], p,
+                 I[l, _EP1] != 0)
+
+
+@jit(inline="always")
+def _put_state(ln, l, st):
+    F = ln.SF
+    I = ln.SI
+    ln.u[l] = st.u
+    ln.w[l] = st.w
+    F[l, _T], F[l, _R], F[l, _RC], F[l, _V] = st.t, st.r, st.rc, st.v
+    F[l, _E0], F[l, _QS], F[l, _UMAX], F[l, _LW], F[l, _LQ] = (st.e0, st.q_stuck, st.u_max,
+                                                               st.lw, st.lq)
+    p = st.p
+    F[l, _H], F[l, _RHO], F[l, _SMIN], F[l, _STEPS], F[l, _OMEGA] = (p.h, p.rho, p.s_min,
+                                                                     p.steps, p.omega)
+    I[l, _PHASE], I[l, _N], I[l, _EP1] = st.phase, st.n, 1 if st.energy_in_phase1 else 0
+    I[l, _GRADED], I[l, _CAPPED], I[l, _LOCAL] = (1 if p.graded else 0, 1 if p.capped else 0,
+                                                  1 if p.local else 0)
+
+
+@jit(inline="always")
+def _creep_at(ln, l):
+    C = ln.CR
+    return Creep(C[l, 0], C[l, 1], C[l, 2], C[l, 3], C[l, 4], C[l, 5], C[l, 6])
+
+
+@jit(inline="always")
+def _put_end(E, j, end):
+    E[j, 0], E[j, 1], E[j, 2], E[j, 3], E[j, 4] = end.kind, end.t, end.u, end.v, end.h
+    E[j, 5], E[j, 6], E[j, 7], E[j, 8] = end.u_max, end.n, end.lw, end.lq
+
+
+@jit(inline="always")
+def ending_at(E, j):
+    """The :class:`~sweep.kernels.march.Ending` that :func:`march_lanes` stored in row j."""
+    return Ending(int(E[j, 0]), E[j, 1], E[j, 2], E[j, 3], E[j, 4], E[j, 5], int(E[j, 6]),
+                  E[j, 7], E[j, 8])
+
+
+# Inlined (two call sites): it runs once per point.
+@jit(inline="always")
+def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, K1):
+    """Idle lanes take the next entries of ``todo`` (their marches started as march()
+    starts them), while there are any; returns the next entry."""
+    for l in range(LANES):
+        if ln.live[l] or nxt >= todo.size:
+            continue
+        i = todo[nxt]
+        c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
+        k = creep_constants(c)
+        st = start(c, policy(c, steps[nxt]), K1)
+        ln.K[l, 0, 0], ln.K[l, 0, 1], ln.K[l, 0, 2] = K1[0, 0], K1[0, 1], K1[0, 2]
+        put_law(ln.LF, ln.LI, l, c)
+        C = ln.CR
+        C[l, 0], C[l, 1], C[l, 2], C[l, 3] = k.kappa, k.p, k.u_c, k.f_uc
+        C[l, 4], C[l, 5], C[l, 6] = k.ubar, k.u_jump, k.u_t
+        _put_state(ln, l, st)
+        ln.point[l] = nxt
+        ln.live[l] = True
+        nxt += 1
+    return nxt
+
+
+@jit(inline="always")
+def _size_step(ln, l, budget, ends):
+    """The next step's size for lane ``l``, after march()'s budget test: a lane out of
+    budget stores its Ending and goes idle; returns whether it did."""
+    st = _state(ln, l)
+    c = law_at(ln.LF, ln.LI, l)
+    if st.n < budget[ln.point[l]]:
+        ln.h[l] = first_guess(st.u, st.v, st.p, c)
+        return False
+    _put_end(ends, ln.point[l], out_of_budget(st, c))
+    ln.live[l] = False
+    return True
+
+
+@jit(inline="always")
+def _finish(ln, l, budget, ends, K1, K2, Q, rest_tol, e_tol):
+    """Lane ``l`` after its stages: the rest of march()'s step, on a copy ``K1`` of the lane's
+    stages; a march that ended stores its Ending and the lane goes idle (returns True)."""
+    j = ln.point[l]
+    for i in range(N_STAGES):
+        K1[i, 0], K1[i, 1], K1[i, 2] = ln.K[l, i, 0], ln.K[l, i, 1], ln.K[l, i, 2]
+    st, end = after_stages(_state(ln, l), law_at(ln.LF, ln.LI, l), _creep_at(ln, l), ln.h[l],
+                           ln.y[l, 0], ln.y[l, 1], ln.y[l, 2], K1, K2, Q, rest_tol, e_tol,
+                           budget[j])
+    if end.kind == GOING:
+        # The next step needs only its first stage (the rules may have moved the state).
+        ln.K[l, 0, 0], ln.K[l, 0, 1], ln.K[l, 0, 2] = K1[0, 0], K1[0, 1], K1[0, 2]
+        _put_state(ln, l, st)
+        return False
+    _put_end(ends, j, end)
+    ln.live[l] = False
+    return True
+
+
+@jit(inline="always")
+def _any(live):
+    for x in live:
+        if x:
+            return True
+    return False
+
+
+@jit()
+def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol, ends):
+    """March the points ``i = todo[j]`` of the parameter arrays, :data:`LANES` at a time.
+
+    Parameters
+    ----------
+    alpha, beta, gamma, gtilde : ndarray of float64
+        Scaled parameters (2) of the points, valid (:func:`sweep.kernels.contact.in_domain`).
+    todo : ndarray of int64
+        The points to march.
+    steps, budget : ndarray (float64, int64), one per entry of ``todo``
+        Resolution (steps per half period) and step budget of each march.
+    rest_tol, e_tol : float
+        The report's rest criterion and the negligible energy of
+        :func:`sweep.kernels.march.march`.
+    ends : ndarray of float64, shape (todo.size, N_ENDING)
+        Filled: row j holds the Ending of entry j (read it with :func:`ending_at`), the one
+        :func:`sweep.kernels.march.march` gives for that point, bit for bit.
+    """
+    own = _lanes()
+    K1, K2, Q = scratch()
+    b = _borrowed
+    _march(_borrow(own), b(alpha), b(beta), b(gamma), b(gtilde), b(todo), b(steps), b(budget),
+           rest_tol, e_tol, b(ends), b(K1), b(K2), b(Q))
+    # The owners live until the borrowed views are done with.
+    own.live[0] = own.live[0] or K1[0, 0] == K2[0, 0] == Q[0, 0]
+
+
+@jit(inline="always")
+def _march(ln, alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol, ends, K1, K2,
+           Q):
+    nxt = _refill(ln, 0, alpha, beta, gamma, gtilde, todo, steps, K1)
+    while True:
+        idle = False
+        for l in range(LANES):
+            if ln.live[l] and _size_step(ln, l, budget, ends):
+                idle = True
+        if idle:
+            # March()'s budget test comes before every step, a fresh march's first too.
+            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, K1)
+            continue
+        if not _any(ln.live):
+            return
+        rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y)
+        for l in range(LANES):
+            if ln.live[l] and _finish(ln, l, budget, ends, K1, K2, Q, rest_tol, e_tol):
+                idle = True
+        if idle:
+            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, K1)

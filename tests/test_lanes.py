@@ -1,0 +1,93 @@
+"""The multi-point march (sweep.kernels.lanes) against the one-point march, bit for bit.
+
+The array kernels march points LANES at a time with their stages interleaved; each point's
+operations must be exactly those of sweep.kernels.march.march, whatever the other lanes
+hold, in what order the points come, and however many there are (idle lanes included).
+"""
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import sweep
+from sweep.kernels.integrator import DEFAULT_MAX_STEPS, DEFAULT_REST_TOL
+from sweep.kernels.lanes import LANES, N_ENDING, march_lanes
+from sweep.kernels.march import march_point
+
+HARD = Path(__file__).parent / "data" / "hard_cases.csv"
+E_TOL = 1e-10
+
+
+def _points():
+    rng = np.random.default_rng(3)
+    n = 120
+    laws = [(1.5, 1.5), (1.5, 1.0), (1.5, 2.5), (1.5, 1.25), (1.0, 1.0), (2.0, 3.0)]
+    a = np.concatenate([np.full(n, x) for x, _ in laws] + [rng.uniform(1, 3, n)])
+    b = np.concatenate([np.full(n, y) for _, y in laws] + [rng.uniform(1, 3, n)])
+    g = 10 ** rng.uniform(-4, 1.5, a.size)
+    gt = np.where(rng.random(a.size) < 0.2, 0.0, 10 ** rng.uniform(-3, 3, a.size))
+    rows = list(csv.DictReader(HARD.open()))
+    hard = np.array([[float(r[k]) for k in ("alpha", "beta", "gamma", "gtilde")] for r in rows])
+    hard = hard[np.all(np.isfinite(hard), axis=1) & (hard[:, 2] > 0)]
+    hard = hard[np.random.default_rng(4).permutation(len(hard))[:200]]
+    pts = [np.concatenate([a, hard[:, 0]]), np.concatenate([b, hard[:, 1]]),
+           np.concatenate([g, hard[:, 2]]), np.concatenate([gt, hard[:, 3]])]
+    # Only points that are marched (not decided in closed form before any march).
+    marched = sweep.integrate(*pts, refine=False).n_steps > 0
+    return tuple(x[marched] for x in pts)
+
+
+def _one_point(a, b, g, gt, steps, budget):
+    e = march_point(a, b, g, gt, steps, DEFAULT_REST_TOL, budget, E_TOL)
+    return np.array([e.kind, e.t, e.u, e.v, e.h, e.u_max, e.n, e.lw, e.lq])
+
+
+def _lanes(alpha, beta, gamma, gtilde, todo, steps, budget):
+    ends = np.empty((todo.size, N_ENDING))
+    march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, DEFAULT_REST_TOL, E_TOL, ends)
+    return ends
+
+
+def _same(x, y):
+    return np.array_equal(x, y, equal_nan=True)
+
+
+@pytest.mark.parametrize("steps", [17.0, 96.0])
+def test_lanes_give_each_point_the_one_point_march_bit_for_bit(steps):
+    alpha, beta, gamma, gtilde = _points()
+    # Shuffled, so that every lane holds other neighbours than in the draw's order.
+    todo = np.random.default_rng(5).permutation(alpha.size).astype(np.int64)
+    budget = np.full(todo.size, DEFAULT_MAX_STEPS, np.int64)
+    ends = _lanes(alpha, beta, gamma, gtilde, todo, np.full(todo.size, steps), budget)
+    bad = [int(i) for j, i in enumerate(todo)
+           if not _same(ends[j], _one_point(alpha[i], beta[i], gamma[i], gtilde[i], steps,
+                                            DEFAULT_MAX_STEPS))]
+    assert not bad, f"{len(bad)} points differ, e.g. {bad[:5]}"
+
+
+def test_lanes_keep_each_march_its_own_resolution_and_budget():
+    alpha, beta, gamma, gtilde = (x[:40] for x in _points())
+    rng = np.random.default_rng(6)
+    todo = np.arange(alpha.size, dtype=np.int64)
+    steps = rng.uniform(10, 200, todo.size)
+    # Small budgets too: a march out of budget ends as march() ends it (BUDGET), even a
+    # fresh one (budget 0).
+    budget = rng.choice([0, 5, 60, DEFAULT_MAX_STEPS], todo.size).astype(np.int64)
+    ends = _lanes(alpha, beta, gamma, gtilde, todo, steps, budget)
+    for j in range(todo.size):
+        ref = _one_point(alpha[j], beta[j], gamma[j], gtilde[j], steps[j], int(budget[j]))
+        assert _same(ends[j], ref), (j, ends[j], ref)
+
+
+@pytest.mark.parametrize("n", [0, 1, LANES - 1, LANES + 1])
+def test_fewer_points_than_lanes_and_remainders(n):
+    alpha, beta, gamma, gtilde = (x[:n] for x in _points())
+    todo = np.arange(n, dtype=np.int64)
+    ends = _lanes(alpha, beta, gamma, gtilde, todo, np.full(n, 48.0),
+                  np.full(n, DEFAULT_MAX_STEPS, np.int64))
+    for j in range(n):
+        assert _same(ends[j], _one_point(alpha[j], beta[j], gamma[j], gtilde[j], 48.0,
+                                         DEFAULT_MAX_STEPS))
