@@ -99,7 +99,7 @@ def _lanes():
                  np.empty((LANES, N_STAGES, 3)))
 
 
-# Rows are indexed in place, never taken as views (a view is one more array to count).
+# The lanes' arrays are borrowed (_borrowed): views of them, like K[l], cost no count.
 @jit(inline="always")
 def _state(ln, l):
     F = ln.SF
@@ -149,7 +149,7 @@ def ending_at(E, j):
 
 # Inlined (two call sites): it runs once per point.
 @jit(inline="always")
-def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, K1):
+def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps):
     """Idle lanes take the next entries of ``todo`` (their marches started as march()
     starts them), while there are any; returns the next entry."""
     for l in range(LANES):
@@ -158,8 +158,7 @@ def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, K1):
         i = todo[nxt]
         c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
         k = creep_constants(c)
-        st = start(c, policy(c, steps[nxt]), K1)
-        ln.K[l, 0, 0], ln.K[l, 0, 1], ln.K[l, 0, 2] = K1[0, 0], K1[0, 1], K1[0, 2]
+        st = start(c, policy(c, steps[nxt]), ln.K[l])
         put_law(ln.LF, ln.LI, l, c)
         C = ln.CR
         C[l, 0], C[l, 1], C[l, 2], C[l, 3] = k.kappa, k.p, k.u_c, k.f_uc
@@ -186,18 +185,14 @@ def _size_step(ln, l, budget, ends):
 
 
 @jit(inline="always")
-def _finish(ln, l, budget, ends, K1, K2, Q, rest_tol, e_tol):
-    """Lane ``l`` after its stages: the rest of march()'s step, on a copy ``K1`` of the lane's
-    stages; a march that ended stores its Ending and the lane goes idle (returns True)."""
+def _finish(ln, l, budget, ends, K2, Q, rest_tol, e_tol):
+    """Lane ``l`` after its stages: the rest of march()'s step; a march that ended stores its
+    Ending and the lane goes idle (returns True)."""
     j = ln.point[l]
-    for i in range(N_STAGES):
-        K1[i, 0], K1[i, 1], K1[i, 2] = ln.K[l, i, 0], ln.K[l, i, 1], ln.K[l, i, 2]
     st, end = after_stages(_state(ln, l), law_at(ln.LF, ln.LI, l), _creep_at(ln, l), ln.h[l],
-                           ln.y[l, 0], ln.y[l, 1], ln.y[l, 2], K1, K2, Q, rest_tol, e_tol,
+                           ln.y[l, 0], ln.y[l, 1], ln.y[l, 2], ln.K[l], K2, Q, rest_tol, e_tol,
                            budget[j])
     if end.kind == GOING:
-        # The next step needs only its first stage (the rules may have moved the state).
-        ln.K[l, 0, 0], ln.K[l, 0, 1], ln.K[l, 0, 2] = K1[0, 0], K1[0, 1], K1[0, 2]
         _put_state(ln, l, st)
         return False
     _put_end(ends, j, end)
@@ -233,18 +228,17 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
         :func:`sweep.kernels.march.march` gives for that point, bit for bit.
     """
     own = _lanes()
-    K1, K2, Q = scratch()
+    _, K2, Q = scratch()
     b = _borrowed
     _march(_borrow(own), b(alpha), b(beta), b(gamma), b(gtilde), b(todo), b(steps), b(budget),
-           rest_tol, e_tol, b(ends), b(K1), b(K2), b(Q))
+           rest_tol, e_tol, b(ends), b(K2), b(Q))
     # The owners live until the borrowed views are done with.
-    own.live[0] = own.live[0] or K1[0, 0] == K2[0, 0] == Q[0, 0]
+    own.live[0] = own.live[0] or K2[0, 0] == Q[0, 0]
 
 
 @jit(inline="always")
-def _march(ln, alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol, ends, K1, K2,
-           Q):
-    nxt = _refill(ln, 0, alpha, beta, gamma, gtilde, todo, steps, K1)
+def _march(ln, alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol, ends, K2, Q):
+    nxt = _refill(ln, 0, alpha, beta, gamma, gtilde, todo, steps)
     while True:
         idle = False
         for l in range(LANES):
@@ -252,13 +246,13 @@ def _march(ln, alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol,
                 idle = True
         if idle:
             # March()'s budget test comes before every step, a fresh march's first too.
-            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, K1)
+            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps)
             continue
         if not _any(ln.live):
             return
         rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y)
         for l in range(LANES):
-            if ln.live[l] and _finish(ln, l, budget, ends, K1, K2, Q, rest_tol, e_tol):
+            if ln.live[l] and _finish(ln, l, budget, ends, K2, Q, rest_tol, e_tol):
                 idle = True
         if idle:
-            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, K1)
+            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps)
