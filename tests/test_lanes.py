@@ -91,3 +91,20 @@ def test_fewer_points_than_lanes_and_remainders(n):
     for j in range(n):
         assert _same(ends[j], _one_point(alpha[j], beta[j], gamma[j], gtilde[j], 48.0,
                                          DEFAULT_MAX_STEPS))
+
+
+@pytest.mark.parametrize("kw", [{}, {"tol": 1e-8}, {"refine": False}])
+def test_array_calls_give_what_the_one_point_solve_gives(kw):
+    # The array kernel runs first marches and every pass of refinement in lanes; the
+    # one-point solve (solve_point, as the CUDA kernel runs it) marches one point at a time.
+    from sweep.kernels.integrator import settings, solve_point
+    from sweep.kernels.stepper import N_DENSE, N_STAGES
+    alpha, beta, gamma, gtilde = _points()
+    r = sweep.integrate(alpha, beta, gamma, gtilde, **kw)
+    s = settings(**kw)
+    K, K2, Q = np.empty((N_STAGES, 3)), np.empty((N_STAGES, 3)), np.empty((2, N_DENSE))
+    got = np.stack([r.e, r.t_f, r.u_max, r.n_steps, r.status, r.e_err])
+    ref = np.array([solve_point(*p, s, K, K2, Q) for p in zip(alpha, beta, gamma, gtilde)]).T
+    assert np.array_equal(got, ref, equal_nan=True)
+    if kw.get("tol"):
+        assert (r.n_steps > 200).any()    # some points were refined

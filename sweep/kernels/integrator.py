@@ -24,10 +24,15 @@ on the test suite's references (tests/test_hard_cases.py).
 An array call runs the serial kernel on blocks of contiguous points, in a shuffled order,
 from a pool of threads (:mod:`sweep.kernels._parallel`): costs vary by orders of magnitude
 (sticking ends early, heavy damping runs long), and each thread takes the next block when
-it is done. Results never depend on the thread count, block or order.
+it is done. Within a block the marches run several at a time
+(:func:`sweep.kernels.lanes.march_lanes`): first every point's first march, then one pass
+per round of refinement over the points still refining, each point's sequence of marches
+the same as :func:`solve_point`'s (one step function, :func:`_refine_update`). Results
+never depend on the thread count, block, order or lanes: they are bit-identical to
+:func:`solve_point` (tests/test_lanes.py, tests/test_integrator_accuracy.py).
 
-Owns: the per-point solve and the array kernels. May import: regimes, march, outcome,
-contact, stepsize, registry, the parallel policy.
+Owns: the per-point solve, the refinement and the array kernels. May import: regimes,
+march, lanes, outcome, contact, stepsize, registry, the parallel policy.
 """
 from __future__ import annotations
 
@@ -40,7 +45,7 @@ from sweep.kernels._jit import cached_jit, jit
 from sweep.kernels._parallel import map_blocks, parallel_allowed
 from sweep.kernels.contact import in_domain, make_law
 from sweep.kernels.lanes import N_ENDING, ending_at, march_lanes
-from sweep.kernels.march import march, scratch
+from sweep.kernels.march import march
 from sweep.kernels.outcome import ROUNDING, decide
 from sweep.kernels.regimes import creeps_from_start, deep_well, linear_overdamped, undamped
 from sweep.kernels.stepsize import policy, resolution
@@ -180,12 +185,14 @@ def _without_march(alpha, beta, gamma, gtilde):
 
 
 @jit(inline="always")
-def _after_march(c, s, a, K, K2, Q):
-    """``(e, t_f, u_max, n_steps, status, e_err)`` of a point whose first march gave the
-    :class:`Result` ``a``: ``a`` itself, or refined where its indicator exceeds the target."""
-    if not (s.target > 0.0 and a.err > s.target and a.status != _BUDGET):
-        return a.e, a.t_f, a.u_max, a.n, a.status, a.err
-    return _refined(c, s, a, K, K2, Q)
+def _needs_refining(s, a):
+    """The first march's :class:`Result` ``a`` has an indicator above the target."""
+    return s.target > 0.0 and a.err > s.target and a.status != _BUDGET
+
+
+@jit(inline="always")
+def _as_output(a):
+    return a.e, a.t_f, a.u_max, a.n, a.status, a.err
 
 
 def _solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
@@ -200,37 +207,72 @@ def _solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
     if decided:
         return r
     c = make_law(alpha, beta, gamma, gtilde)
-    return _after_march(c, s, _solve_at(c, s.steps, s, s.max_steps, K, K2, Q), K, K2, Q)
+    a = _solve_at(c, s.steps, s, s.max_steps, K, K2, Q)
+    if not _needs_refining(s, a):
+        return _as_output(a)
+    return _refined(c, s, a, K, K2, Q)
 
 
 #: The per-point solve compiled once, for callers of single points (the CUDA kernel, tests).
 solve_point = jit()(_solve_point)
 
 
+class Refining(NamedTuple):
+    """A point being refined, between two marches: the next march is at ``done * f`` times
+    the resolution with the budget left; ``last`` is the latest march's :class:`Result`,
+    ``err`` its error estimate, ``n`` the steps of every march so far."""
+
+    done: float
+    f: float
+    err: float
+    n: int
+    last: Result
+
+
+@jit(inline="always")
+def _refining(a):
+    """The refinement of a point whose first march ``a`` needs it (:func:`_needs_refining`):
+    checked first against a march at twice the resolution."""
+    return Refining(1.0, 2.0, a.err, a.n, a)
+
+
+@jit(inline="always")
+def _next_march(r, s):
+    """Resolution and budget of the next march of the refinement ``r``."""
+    return r.done * r.f * s.steps, s.max_steps - r.n
+
+
+@jit(inline="always")
+def _refine_update(r, a, s):
+    """The refinement ``r`` after its next march gave ``a``: ``(finished, output, r)``,
+    ``output`` the point's ``(e, t_f, u_max, n_steps, status, e_err)`` once finished."""
+    # A coarser march than twice the first can still be short of the asymptotic regime,
+    # where Richardson misjudges; the budget covers every march. Refined while the
+    # resolution-dependent part of the error is above the target, with a margin: near
+    # grazing the error can stall between resolutions (seen: a factor 2 from 192 to 384
+    # steps, then 500 to 768), where Richardson's estimate falls short.
+    aim = REFINE_MARGIN * s.target
+    done = r.done * r.f
+    n = r.n + a.n
+    if a.status == _BUDGET:
+        return True, _kept(r.last, n, r.err), r
+    err, floor = _richardson(a, r.last, r.f)
+    if not (err - floor > aim and done < MAX_REFINEMENT and n < s.max_steps):
+        return True, (a.e, a.t_f, a.u_max, n, a.status, err), r
+    f = min(max(1.25 * (err / aim) ** 0.2, 1.5), MAX_REFINEMENT / done)
+    return False, (a.e, a.t_f, a.u_max, n, a.status, err), Refining(done, f, err, n, a)
+
+
 @jit(inline="always")
 def _refined(c, s, a, K, K2, Q):
-    """Refinement of a point whose first march ``a`` has an indicator above the target."""
-    # Checked first against a march at twice the resolution (a coarser one can still be
-    # short of the asymptotic regime, where Richardson misjudges); the budget covers every
-    # march. Then refined while the resolution-dependent part of the error is above the
-    # target, with a margin: near grazing the error can stall between resolutions (seen: a
-    # factor 2 from 192 to 384 steps, then 500 to 768), where Richardson's estimate falls
-    # short.
-    aim = REFINE_MARGIN * s.target
-    n = a.n
-    done, f = 1.0, 2.0
-    err, floor = a.err, 0.0
+    """Refinement of a point whose first march ``a`` has an indicator above the target,
+    one march after the other (:func:`_refine_update`)."""
+    r = _refining(a)
     while True:
-        done *= f
-        b_err = err
-        b, a = a, _solve_at(c, done * s.steps, s, s.max_steps - n, K, K2, Q)
-        n += a.n
-        if a.status == _BUDGET:
-            return _kept(b, n, b_err)
-        err, floor = _richardson(a, b, f)
-        if not (err - floor > aim and done < MAX_REFINEMENT and n < s.max_steps):
-            return a.e, a.t_f, a.u_max, n, a.status, err
-        f = min(max(1.25 * (err / aim) ** 0.2, 1.5), MAX_REFINEMENT / done)
+        steps, budget = _next_march(r, s)
+        finished, out, r = _refine_update(r, _solve_at(c, steps, s, budget, K, K2, Q), s)
+        if finished:
+            return out
 
 
 @jit(inline="always")
@@ -243,11 +285,32 @@ def _kept(r, n, err):
 
 @cached_jit()
 def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err):
-    """Every point of the arrays, serially: what :func:`solve_point` gives each, with the
-    first marches of all points run :data:`sweep.kernels.lanes.LANES` at a time
-    (:func:`sweep.kernels.lanes.march_lanes`, bit-identical to one point's march); ``nogil``,
-    so that :func:`sweep.kernels._parallel.map_blocks` runs blocks of them at once."""
+    """Every point of the arrays, serially: what :func:`solve_point` gives each, its marches
+    run :data:`sweep.kernels.lanes.LANES` at a time (:func:`sweep.kernels.lanes.march_lanes`,
+    bit-identical to one point's march): first every point's first march, then each pass of
+    refinement over the points still refining; ``nogil``, so that
+    :func:`sweep.kernels._parallel.map_blocks` runs blocks of them at once."""
     out = (e, t_f, u_max, n_steps, status, e_err)
+    todo = _first_marches(alpha, beta, gamma, gtilde, out)
+    m = todo.size
+    ends = _marched(alpha, beta, gamma, gtilde, todo, np.full(m, s.steps),
+                    np.full(m, s.max_steps, np.int64), s)
+    refining = []
+    for j in range(m):
+        i = todo[j]
+        a = _decided(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), ending_at(ends, j),
+                     s.steps)
+        if _needs_refining(s, a):
+            refining.append((i, _refining(a)))
+        else:
+            _put(out, i, _as_output(a))
+    while len(refining) > 0:
+        refining = _refinement_pass(alpha, beta, gamma, gtilde, s, refining, out)
+
+
+@jit(inline="always")
+def _first_marches(alpha, beta, gamma, gtilde, out):
+    """Points decided without a march go to ``out``; returns the others."""
     todo = np.empty(alpha.size, np.int64)
     m = 0
     for i in range(alpha.size):
@@ -257,15 +320,40 @@ def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err
         else:
             todo[m] = i
             m += 1
-    todo = todo[:m]
-    ends = np.empty((m, N_ENDING))
-    march_lanes(alpha, beta, gamma, gtilde, todo, np.full(m, s.steps),
-                np.full(m, s.max_steps, np.int64), s.rest_tol, _negligible(s), ends)
-    K, K2, Q = scratch()
+    return todo[:m]
+
+
+@jit(inline="always")
+def _marched(alpha, beta, gamma, gtilde, todo, steps, budget, s):
+    ends = np.empty((todo.size, N_ENDING))
+    march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, s.rest_tol, _negligible(s),
+                ends)
+    return ends
+
+
+@jit(inline="always")
+def _refinement_pass(alpha, beta, gamma, gtilde, s, refining, out):
+    """One more march for each refining point ``(i, Refining)``, all at once in lanes;
+    finished points go to ``out``; returns those still refining."""
+    m = len(refining)
+    todo = np.empty(m, np.int64)
+    steps = np.empty(m)
+    budget = np.empty(m, np.int64)
     for j in range(m):
-        i = todo[j]
-        c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
-        _put(out, i, _after_march(c, s, _decided(c, ending_at(ends, j), s.steps), K, K2, Q))
+        todo[j] = refining[j][0]
+        steps[j], budget[j] = _next_march(refining[j][1], s)
+    ends = _marched(alpha, beta, gamma, gtilde, todo, steps, budget, s)
+    still = refining[:0]
+    for j in range(m):
+        i, r = refining[j]
+        a = _decided(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), ending_at(ends, j),
+                     steps[j])
+        finished, o, r = _refine_update(r, a, s)
+        if finished:
+            _put(out, i, o)
+        else:
+            still.append((i, r))
+    return still
 
 
 @jit(inline="always")
