@@ -295,17 +295,44 @@ def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err
     m = todo.size
     ends = _marched(alpha, beta, gamma, gtilde, todo, np.full(m, s.steps),
                     np.full(m, s.max_steps, np.int64), s)
-    refining = []
+    # The points still refining, compacted in place after each pass: point indices and
+    # their Refining states as rows (arrays rather than lists: lists of tuples cost
+    # seconds of compile).
+    where = np.empty(m, np.int64)
+    rows = np.empty((m, _N_REFINING))
+    k = 0
     for j in range(m):
         i = todo[j]
         a = _decided(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), ending_at(ends, j),
                      s.steps)
         if _needs_refining(s, a):
-            refining.append((i, _refining(a)))
+            where[k] = i
+            _put_refining(rows, k, _refining(a))
+            k += 1
         else:
             _put(out, i, _as_output(a))
-    while len(refining) > 0:
-        refining = _refinement_pass(alpha, beta, gamma, gtilde, s, refining, out)
+    while k > 0:
+        k = _refinement_pass(alpha, beta, gamma, gtilde, s, where[:k], rows, out)
+
+
+_N_REFINING = 12
+
+
+@jit(inline="always")
+def _put_refining(rows, j, r):
+    R = rows
+    a = r.last
+    R[j, 0], R[j, 1], R[j, 2], R[j, 3] = r.done, r.f, r.err, r.n
+    R[j, 4], R[j, 5], R[j, 6], R[j, 7] = a.e, a.t_f, a.u_max, a.n
+    R[j, 8], R[j, 9], R[j, 10], R[j, 11] = a.status, a.err, a.e_q, a.e_v
+
+
+@jit(inline="always")
+def _refining_at(rows, j):
+    R = rows
+    a = Result(R[j, 4], R[j, 5], R[j, 6], int(R[j, 7]), int(R[j, 8]), R[j, 9], R[j, 10],
+               R[j, 11])
+    return Refining(R[j, 0], R[j, 1], R[j, 2], int(R[j, 3]), a)
 
 
 @jit(inline="always")
@@ -332,28 +359,29 @@ def _marched(alpha, beta, gamma, gtilde, todo, steps, budget, s):
 
 
 @jit(inline="always")
-def _refinement_pass(alpha, beta, gamma, gtilde, s, refining, out):
-    """One more march for each refining point ``(i, Refining)``, all at once in lanes;
-    finished points go to ``out``; returns those still refining."""
-    m = len(refining)
-    todo = np.empty(m, np.int64)
+def _refinement_pass(alpha, beta, gamma, gtilde, s, where, rows, out):
+    """One more march for each refining point (``where[j]``, its Refining in ``rows[j]``),
+    all at once in lanes; finished points go to ``out``, the others are compacted to the
+    front of ``where`` and ``rows``; returns how many are still refining."""
+    m = where.size
     steps = np.empty(m)
     budget = np.empty(m, np.int64)
     for j in range(m):
-        todo[j] = refining[j][0]
-        steps[j], budget[j] = _next_march(refining[j][1], s)
-    ends = _marched(alpha, beta, gamma, gtilde, todo, steps, budget, s)
-    still = refining[:0]
+        steps[j], budget[j] = _next_march(_refining_at(rows, j), s)
+    ends = _marched(alpha, beta, gamma, gtilde, where, steps, budget, s)
+    k = 0
     for j in range(m):
-        i, r = refining[j]
+        i = where[j]
         a = _decided(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), ending_at(ends, j),
                      steps[j])
-        finished, o, r = _refine_update(r, a, s)
+        finished, o, r = _refine_update(_refining_at(rows, j), a, s)
         if finished:
             _put(out, i, o)
         else:
-            still.append((i, r))
-    return still
+            where[k] = i
+            _put_refining(rows, k, r)
+            k += 1
+    return k
 
 
 @jit(inline="always")

@@ -182,36 +182,6 @@ def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps):
 
 
 @jit(inline="always")
-def _size_step(ln, l, budget, ends):
-    """The next step's size for lane ``l``, after march()'s budget test: a lane out of
-    budget stores its Ending and goes idle; returns whether it did."""
-    st = _state(ln, l)
-    c = law_at(ln.LF, ln.LI, l)
-    if st.n < budget[ln.point[l]]:
-        ln.h[l] = first_guess(st.u, st.v, st.p, c)
-        return False
-    _put_end(ends, ln.point[l], out_of_budget(st, c))
-    ln.live[l] = False
-    return True
-
-
-@jit(inline="always")
-def _finish(ln, l, budget, ends, K2, Q, rest_tol, e_tol):
-    """Lane ``l`` after its stages: the rest of march()'s step; a march that ended stores its
-    Ending and the lane goes idle (returns True)."""
-    j = ln.point[l]
-    st, end = after_stages(_state(ln, l), law_at(ln.LF, ln.LI, l), _creep_at(ln, l), ln.h[l],
-                           ln.y[l, 0], ln.y[l, 1], ln.y[l, 2], ln.K[l], K2, Q, rest_tol, e_tol,
-                           budget[j])
-    if end.kind == GOING:
-        _put_state(ln, l, st)
-        return False
-    _put_end(ends, j, end)
-    ln.live[l] = False
-    return True
-
-
-@jit(inline="always")
 def _any(live):
     for x in live:
         if x:
@@ -238,32 +208,39 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
         Filled: row j holds the Ending of entry j (read it with :func:`ending_at`), the one
         :func:`sweep.kernels.march.march` gives for that point, bit for bit.
     """
+    # One function, the step's per-lane parts written out here: every level of inlining
+    # copies the march's step logic once more at compile time (seconds).
     own = _lanes()
-    _, K2, Q = scratch()
+    _, K2_own, Q_own = scratch()
     b = _borrowed
-    _march(_borrow(own), b(alpha), b(beta), b(gamma), b(gtilde), b(todo), b(steps), b(budget),
-           rest_tol, e_tol, b(ends), b(K2), b(Q))
-    # The owners live until the borrowed views are done with.
-    own.live[0] = own.live[0] or K2[0, 0] == Q[0, 0]
-
-
-@jit(inline="always")
-def _march(ln, alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol, ends, K2, Q):
-    nxt = _refill(ln, 0, alpha, beta, gamma, gtilde, todo, steps)
-    while True:
+    ln, K2, Q = _borrow(own), b(K2_own), b(Q_own)
+    alpha, beta, gamma, gtilde, todo = b(alpha), b(beta), b(gamma), b(gtilde), b(todo)
+    steps, budget, ends = b(steps), b(budget), b(ends)
+    nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps)
+    while _any(ln.live):
         idle = False
-        for l in range(LANES):
-            if ln.live[l] and _size_step(ln, l, budget, ends):
-                idle = True
+        for l in range(LANES):         # the step's size, after march()'s budget test
+            if ln.live[l]:
+                st, c = _state(ln, l), law_at(ln.LF, ln.LI, l)
+                if st.n < budget[ln.point[l]]:
+                    ln.h[l] = first_guess(st.u, st.v, st.p, c)
+                else:
+                    _put_end(ends, ln.point[l], out_of_budget(st, c))
+                    ln.live[l], idle = False, True
+        if not idle:
+            rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y)
+            for l in range(LANES):     # the rest of march()'s step
+                if ln.live[l]:
+                    st, end = after_stages(_state(ln, l), law_at(ln.LF, ln.LI, l),
+                                           _creep_at(ln, l), ln.h[l], ln.y[l, 0], ln.y[l, 1],
+                                           ln.y[l, 2], ln.K[l], K2, Q, rest_tol, e_tol,
+                                           budget[ln.point[l]])
+                    if end.kind == GOING:
+                        _put_state(ln, l, st)
+                    else:
+                        _put_end(ends, ln.point[l], end)
+                        ln.live[l], idle = False, True
         if idle:
-            # March()'s budget test comes before every step, a fresh march's first too.
             nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps)
-            continue
-        if not _any(ln.live):
-            return
-        rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y)
-        for l in range(LANES):
-            if ln.live[l] and _finish(ln, l, budget, ends, K2, Q, rest_tol, e_tol):
-                idle = True
-        if idle:
-            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps)
+    # The owners live until the borrowed views are done with.
+    own.live[0] = K2_own[0, 0] == Q_own[0, 0]
