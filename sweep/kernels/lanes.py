@@ -24,8 +24,8 @@ latency to hide them, those updates took 70% of the time (``perf``: the ``lock``
 
 Cost (one core, KK, ``python benchmarks/step_cost.py``): 48-53 ns a step against 78 for
 one point's march; the stages alone take 25-31 ns of it (``benchmarks/lanes.py``).
-Compiled with the march's own step logic inlined once more, the driver costs about 12 s
-of first compile against 7 s for the one-point march.
+Its first compile takes about 10 s (the callees it shares with the one-point march
+included) against 7 s for the one-point march, which array calls no longer compile.
 
 Owns: the multi-point driver and the layout of its lanes. May import: contact, creep,
 stepper, stepsize, march.
