@@ -108,3 +108,13 @@ def test_array_calls_give_what_the_one_point_solve_gives(kw):
     assert np.array_equal(got, ref, equal_nan=True)
     if kw.get("tol"):
         assert (r.n_steps > 200).any()    # some points were refined
+
+
+def test_lanes_refuse_arrays_they_cannot_borrow():
+    # The march reads its arrays through views without ownership, which assume C order.
+    import numba
+    alpha, beta, gamma, gtilde = (np.repeat(x[:4], 2)[::2] for x in _points())
+    todo = np.arange(4, dtype=np.int64)
+    with pytest.raises(numba.core.errors.TypingError, match="C-contiguous"):
+        _lanes(alpha, beta, gamma, gtilde, todo, np.full(4, 48.0),
+               np.full(4, DEFAULT_MAX_STEPS, np.int64))

@@ -295,9 +295,8 @@ def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err
     m = todo.size
     ends = _marched(alpha, beta, gamma, gtilde, todo, np.full(m, s.steps),
                     np.full(m, s.max_steps, np.int64), s)
-    # The points still refining, compacted in place after each pass: point indices and
-    # their Refining states as rows (arrays rather than lists: lists of tuples cost
-    # seconds of compile).
+    # The points still refining, compacted in place after each pass: their indices (the
+    # lanes take an array of them) and their Refining states, a row each.
     where = np.empty(m, np.int64)
     rows = np.empty((m, _N_REFINING))
     k = 0

@@ -78,7 +78,11 @@ class Lanes(NamedTuple):
 
 @intrinsic
 def _data(typingctx, arr):
-    """Pointer to an array's first element."""
+    """Pointer to a C-contiguous array's first element (others are refused when compiled:
+    a borrowed view of them would read the wrong elements)."""
+    if not (isinstance(arr, types.Array) and arr.layout == "C"):
+        raise numba.core.errors.TypingError(f"a C-contiguous array is needed, got {arr}")
+
     def codegen(context, builder, signature, args):
         return context.make_array(signature.args[0])(context, builder, args[0]).data
     return types.CPointer(arr.dtype)(arr), codegen
