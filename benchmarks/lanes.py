@@ -1,4 +1,4 @@
-"""Runge-Kutta stages of one point against two points interleaved (one core).
+"""Runge-Kutta stages of one point against two points interleaved and the array kernels' lanes.
 
     python benchmarks/lanes.py [--n 2000000] [--repeat 3]
 
@@ -6,8 +6,10 @@ The seven stages of a Dormand-Prince step form one chain of dependent operations
 stage's power of u waits for the stage before), so a core running one point waits on
 latency most of the time. This times the same stages (the package's ``rk_stage`` and
 ``rk_combine``, KK law) marched on one point, then on two independent points whose stages
-alternate, and prints nanoseconds per step and point. It measures the stages alone: a
-march adds per step its events, error sums and stopping rules, for each point.
+alternate, then the array kernels' own stages of ``LANES`` points at once
+(``sweep.kernels.stepper.rk_step_lanes``), and prints nanoseconds per step and point, one
+core. It measures the stages alone: a march adds per step its events, error sums and
+stopping rules, for each point (``benchmarks/step_cost.py`` times the whole march).
 """
 from __future__ import annotations
 
@@ -17,8 +19,9 @@ import time
 import numba as nb
 import numpy as np
 
-from sweep.kernels.contact import make_law, rhs
-from sweep.kernels.stepper import N_STAGES, rk_combine, rk_stage
+from sweep.kernels.contact import make_law, put_law, rhs
+from sweep.kernels.lanes import LANES
+from sweep.kernels.stepper import N_STAGES, rk_combine, rk_stage, rk_step_lanes
 
 _H = 1e-9      # a tiny step keeps the state, and so the work per stage, the same throughout
 
@@ -67,6 +70,26 @@ def two_lanes(n, gamma, gtilde):
     return ua + ub + acc
 
 
+@nb.njit(nogil=True)
+def all_lanes(n, gamma, gtilde):
+    K = np.empty((LANES, N_STAGES, 3))
+    LF, LI = np.empty((LANES, 4)), np.empty((LANES, 4), np.int64)
+    u, w, h = np.full(LANES, 0.3), np.full(LANES, 0.2), np.full(LANES, _H)
+    live, y = np.ones(LANES, np.bool_), np.empty((LANES, 3))
+    for l in range(LANES):
+        c = make_law(1.5, 1.5, (1.0 + 0.1 * l) * gamma, gtilde)
+        put_law(LF, LI, l, c)
+        K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = rhs(u[l], w[l], c)
+    acc = 0.0
+    for _ in range(n // LANES):
+        rk_step_lanes(u, w, h, K, LF, LI, live, y)
+        for l in range(LANES):
+            u[l], w[l] = y[l, 0], y[l, 1]
+            K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = K[l, 6, 0], K[l, 6, 1], K[l, 6, 2]
+            acc += y[l, 2]
+    return acc
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--n", type=int, default=2_000_000, help="steps (of all points together)")
@@ -74,14 +97,18 @@ def main() -> None:
     args = p.parse_args()
     one_lane(10, 0.01, 0.1)
     two_lanes(10, 0.01, 0.1)
+    all_lanes(10 * LANES, 0.01, 0.1)
     for _ in range(args.repeat):
         t0 = time.process_time()
         one_lane(args.n, 0.01, 0.1)
         t1 = time.process_time()
         two_lanes(args.n, 0.01, 0.1)
         t2 = time.process_time()
+        all_lanes(args.n, 0.01, 0.1)
+        t3 = time.process_time()
         print(f"one lane {(t1 - t0) / args.n * 1e9:.1f} ns/step; two lanes "
-              f"{(t2 - t1) / args.n * 1e9:.1f} ns/step per point")
+              f"{(t2 - t1) / args.n * 1e9:.1f} ns/step per point; {LANES} lanes "
+              f"(rk_step_lanes) {(t3 - t2) / args.n * 1e9:.1f} ns/step per point")
 
 
 if __name__ == "__main__":
