@@ -218,8 +218,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     _, K2_own, Q_own = scratch()
     b = _borrowed
     ln, K2, Q = _borrow(own), b(K2_own), b(Q_own)
-    alpha, beta, gamma, gtilde, todo = b(alpha), b(beta), b(gamma), b(gtilde), b(todo)
-    steps, budget, ends = b(steps), b(budget), b(ends)
+    budget, ends = b(budget), b(ends)     # the others are read once per point
     nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps)
     while _any(ln.live):
         idle = False
