@@ -22,10 +22,9 @@ from typing import NamedTuple
 from sweep.kernels._jit import jit
 from sweep.registry import PARAMETERS
 
-__all__ = ["Law", "make_law", "put_law", "law_at",
-           "power_kind", "ppow", "ppow_called", "rhs", "rhs_called",
-           "velocity", "accel", "dissipated", "potential", "damping_rate", "equilibrium",
-           "well_depth", "damping_ratio", "natural_frequency", "umax_undamped",
+__all__ = ["Law", "make_law", "put_law", "law_at", "power_kind", "ppow", "ppow_called", "rhs",
+           "rhs_called", "velocity", "accel", "dissipated", "potential", "damping_rate",
+           "equilibrium", "well_depth", "damping_ratio", "natural_frequency", "umax_undamped",
            "elastic_frequency", "in_domain", "KIND_ONE"]
 
 # Exponents of the report's models get a pow-free evaluation: pow() dominates the cost of a

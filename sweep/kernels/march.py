@@ -133,7 +133,7 @@ def _stationary_u(u, v, c, upward):
 def _capped(u, w, s, u1, w1, dr, fu0, fw0, fr0, p, K, c, n, max_steps):
     """The step ``s`` from (u, w) that ended at (u1, w1), retaken smaller while the damping
     cap judged at its end is exceeded: ``(u1, w1, dr, s, n)``, n the steps counter. ``fu0,
-    fw0, fr0``: f at the step's start (the stages overwrote K[0] for the FSAL tableau)."""
+    fw0, fr0``: f at the step's start (K[0], which the stages leave as it is)."""
     # A load can drive the bead deep into the damper within one step: judge the cap at the
     # step's end too and retake the step if it was exceeded (twice: slack against
     # retaking steps for nothing).

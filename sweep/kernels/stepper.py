@@ -19,9 +19,8 @@ from sweep.kernels._jit import jit
 from sweep.kernels.contact import law_at, rhs, rhs_called
 from sweep.kernels.tableau import DORMAND_PRINCE_54
 
-__all__ = ["rk_step", "rk_step_inline", "rk_step_lanes",
-           "rk_stage", "stage_point", "rk_combine", "local_error",
-           "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
+__all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "rk_stage", "stage_point", "rk_combine",
+           "local_error", "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
 
 _T = DORMAND_PRINCE_54
 _A = np.ascontiguousarray(_T.A)
@@ -39,8 +38,8 @@ def _one(K, j, c, lane):
 
 @jit(inline="always")
 def _lane(K, j, c, lane):
-    # Indexed in place, not through the view K[lane]: a view costs two atomic reference
-    # count updates, more than a stage (sweep.kernels.lanes).
+    # Indexed in place, not through the view K[lane]: a view of an array that owns its
+    # memory costs two atomic reference count updates (sweep.kernels.lanes).
     return K[lane, j, c]
 
 
