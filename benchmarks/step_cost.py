@@ -3,8 +3,9 @@
     python benchmarks/step_cost.py [--n 100000] [--law kk|hertz|shc|tti|linear] [--repeat 3]
 
 Integrates the core benchmark's draw (gamma = 10**U(-4, -0.5), g~ = 10**U(-3, 1),
-``numpy.random.default_rng(0)``) serially, one march per point (no refinement), at 48 and
-192 steps per half period, and fits time per point = intercept + slope * steps per point:
+``numpy.random.default_rng(0)``) serially, one march per point (no refinement; the array
+kernel marches 8 points at once, ``sweep/kernels/lanes.py``), at 48 and 192 steps per half
+period, and fits time per point = intercept + slope * steps per point:
 the slope is what one step of the march costs (stages, events, error sums and stopping
 rules), the intercept what a point costs besides (its regimes, step policy, decision and
 the call). Compare with ``benchmarks/lanes.py`` (the stages alone).
