@@ -113,7 +113,6 @@ def _lanes():
                  np.empty((LANES, N_STAGES, 3)))
 
 
-# The lanes' arrays are borrowed (_borrowed): views of them, like K[l], cost no count.
 @jit(inline="always")
 def _state(ln, l):
     F = ln.SF
@@ -140,6 +139,13 @@ def _put_state(ln, l, st):
     I[l, _PHASE], I[l, _N], I[l, _EP1] = st.phase, st.n, 1 if st.energy_in_phase1 else 0
     I[l, _GRADED], I[l, _CAPPED], I[l, _LOCAL] = (1 if p.graded else 0, 1 if p.capped else 0,
                                                   1 if p.local else 0)
+
+
+@jit(inline="always")
+def _put_creep(ln, l, k):
+    C = ln.CR
+    C[l, 0], C[l, 1], C[l, 2], C[l, 3] = k.kappa, k.p, k.u_c, k.f_uc
+    C[l, 4], C[l, 5], C[l, 6] = k.ubar, k.u_jump, k.u_t
 
 
 @jit(inline="always")
@@ -172,12 +178,9 @@ def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps):
             continue
         i = todo[nxt]
         c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
-        k = creep_constants(c)
         st = start(c, policy(c, steps[nxt]), ln.K[l])
         put_law(ln.LF, ln.LI, l, c)
-        C = ln.CR
-        C[l, 0], C[l, 1], C[l, 2], C[l, 3] = k.kappa, k.p, k.u_c, k.f_uc
-        C[l, 4], C[l, 5], C[l, 6] = k.ubar, k.u_jump, k.u_t
+        _put_creep(ln, l, creep_constants(c))
         _put_state(ln, l, st)
         ln.point[l] = nxt
         ln.live[l] = True
@@ -234,6 +237,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
             rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y)
             for l in range(LANES):     # the rest of march()'s step
                 if ln.live[l]:
+                    # ln.K[l] is a view of a borrowed array: it costs no count.
                     st, end = after_stages(_state(ln, l), law_at(ln.LF, ln.LI, l),
                                            _creep_at(ln, l), ln.h[l], ln.y[l, 0], ln.y[l, 1],
                                            ln.y[l, 2], ln.K[l], K2, Q, rest_tol, e_tol,
