@@ -437,6 +437,23 @@ def test_an_unreachable_scheduler_fails_fast_naming_the_address(tmp_path):
         run(GRID, tmp_path / "out.nc", scheduler="nonsense")
 
 
+def test_a_failed_scheduler_connection_leaves_no_default_client(tmp_path):
+    # distributed registers a Client as the process's default, and sets dask's scheduler
+    # to it, before it connects; one that failed ("nonsense" fails parsing the address),
+    # kept alive by its exception's traceback, then served every later dask compute in the
+    # process, which waited on it for ever (a CI run hung so, in the README's notebook
+    # example). The runner's client is never the default: it submits to it explicitly.
+    distributed = pytest.importorskip("distributed")
+    import dask
+    for address in ("nonsense", f"tcp://127.0.0.1:{_closed_port()}"):
+        with pytest.raises(runner.RunError) as info:
+            run(GRID, tmp_path / "out.nc", scheduler=address, scheduler_timeout=0.5)
+        assert info.value.__cause__ is not None        # the failure's traceback is alive
+        with pytest.raises(ValueError):
+            distributed.Client.current(allow_global=True)
+        assert dask.config.get("scheduler", None) is None
+
+
 # --------------------------------------------------------------------------- the command line
 
 def _non_sweep_netcdf(path):
@@ -554,3 +571,4 @@ def test_signals_wait_for_the_end_of_the_publication():
     finally:
         signal.signal(signal.SIGTERM, previous)
     assert reached
+

@@ -406,7 +406,11 @@ def _connect(scheduler, timeout):
         return scheduler, False
     timeout = _limits.SCHEDULER_TIMEOUT_S if timeout is None else timeout
     try:
-        return Client(scheduler, timeout=timeout), True
+        # Never the process's default client: the runner submits to it explicitly, and
+        # distributed makes a client the default (dask's scheduler) before it connects, so
+        # that one which failed to connect, kept alive by its exception, served every later
+        # dask compute of the process, which then waited on it for ever.
+        return Client(scheduler, timeout=timeout, set_as_default=False), True
     except (OSError, ValueError, TypeError) as exc:  # timeouts are OSErrors in distributed
         raise RunError(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from exc
 
@@ -416,7 +420,7 @@ def _dask_executor(plan, tasks, client):
 
     # A bounded number of chunks in flight keeps memory bounded on both sides.
     window = max(2, 2 * sum(client.nthreads().values()))
-    futures = as_completed()
+    futures = as_completed(loop=client.loop)   # not the default client's: ours is none
     meta = {}
     token = uuid.uuid4().hex  # task keys unique to this run on a shared scheduler
     tasks = iter(tasks)
