@@ -1,10 +1,13 @@
 """The kernel cache key: every package module a kernel imports, whatever the import form."""
+import gc
 import shutil
 import subprocess
 import sys
 import textwrap
 from pathlib import Path
 
+import numba
+import numba.core.event
 import pytest
 
 import sweep
@@ -84,3 +87,74 @@ def test_cached_kernels_live_under_the_source_hash(tmp_path):
     where = Path(out)
     assert where == tmp_path / "sweep-numba" / _jit.source_hash()
     assert any(where.rglob("*.nbi")), "no cache index written"
+
+
+class _Thresholds(numba.core.event.Listener):
+    """Records the GC thresholds at the start of every compile (registered after the
+    package's own listener, so it sees what that one set)."""
+
+    def __init__(self):
+        self.seen = []
+
+    def on_start(self, event):
+        self.seen.append((event.data["dispatcher"].py_func.__name__, gc.get_threshold()))
+
+    def on_end(self, event):
+        pass
+
+
+def _as_if_in(module, fn):
+    fn.__module__ = module
+    return numba.njit(fn)
+
+
+@pytest.fixture()
+def thresholds():
+    rec = _Thresholds()
+    numba.core.event.register("numba:compile", rec)
+    before = gc.get_threshold()
+    yield rec, before
+    numba.core.event.unregister("numba:compile", rec)
+    gc.set_threshold(*before)
+
+
+def test_the_collector_is_relaxed_while_a_package_kernel_compiles(thresholds):
+    rec, before = thresholds
+    assert before != _jit.COMPILE_GC_THRESHOLDS
+
+    def callee(x):
+        return x + 1.0
+
+    def kernel(x):
+        return inner(x) * 2.0
+
+    inner = _as_if_in("tests.elsewhere", callee)
+    outer = _as_if_in("sweep.kernels.fake", kernel)
+    assert outer(1.0) == 4.0
+    # The package's kernel and what it compiles under it run relaxed; then it is undone.
+    assert rec.seen == [("kernel", _jit.COMPILE_GC_THRESHOLDS),
+                        ("callee", _jit.COMPILE_GC_THRESHOLDS)]
+    assert gc.get_threshold() == before
+
+
+def test_other_code_compiles_with_the_thresholds_it_has(thresholds):
+    rec, before = thresholds
+    gc.set_threshold(500, 7, 9)
+
+    def theirs(x):
+        return x - 1.0
+
+    assert _as_if_in("elsewhere", theirs)(1.0) == 0.0
+    assert rec.seen == [("theirs", (500, 7, 9))] and gc.get_threshold() == (500, 7, 9)
+
+
+def test_a_failed_compile_restores_the_thresholds(thresholds):
+    rec, before = thresholds
+
+    def broken(x):
+        return x + "text"
+
+    with pytest.raises(numba.core.errors.TypingError):
+        _as_if_in("sweep.kernels.fake", broken)(1.0)
+    assert rec.seen == [("broken", _jit.COMPILE_GC_THRESHOLDS)]
+    assert gc.get_threshold() == before

@@ -12,22 +12,31 @@ import, transitively, whatever the import form (``import sweep.x``, ``from sweep
 tree, not by pattern. Editing the CLI, the store or the reports does not invalidate compiled
 kernels. The user's own setting is restored right after.
 
-Owns: the kernel cache location. May import: nothing from ``sweep``.
+While numba compiles one of the package's kernels, Python's cyclic garbage collector runs
+with relaxed thresholds (:data:`COMPILE_GC_THRESHOLDS`, through numba's public
+``numba:compile`` event): a compile allocates millions of objects, and the collections they
+triggered took a tenth of the first compile.
+
+Owns: the kernel cache location and the compile-time settings. May import: nothing from
+``sweep``.
 """
 from __future__ import annotations
 
 import ast
 import contextlib
 import functools
+import gc
 import hashlib
 import os
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 
 import numba
+from numba.core import event as _event
 
 __all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "package_imports",
-           "jit", "cached_jit", "FLAGS"]
+           "jit", "cached_jit", "FLAGS", "COMPILE_GC_THRESHOLDS"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 _PACKAGE = _PACKAGE_DIR.name
@@ -179,3 +188,48 @@ def cached_jit(**options):
         with kernel_cache():
             return numba.njit(cache=True, **FLAGS, **options)(fn)
     return wrap
+
+
+#: Cyclic-GC thresholds while a kernel of this package compiles: a young-generation
+#: collection every 10,000 allocations (against 700) and none of the older ones. The first
+#: ``cor()`` compiled in 15.4-15.7 s with the defaults and 14.1-14.6 s with these, measured
+#: interleaved (13.5 s with the collector off); peak memory 390 MB against 280 MB (460 MB
+#: off). What the compile left for the collector is collected once the defaults are back.
+COMPILE_GC_THRESHOLDS = (10_000, 1_000_000, 1_000_000)
+
+
+class _RelaxedCollector(_event.Listener):
+    """Sets :data:`COMPILE_GC_THRESHOLDS` from the start of the outermost compile of one of
+    this package's dispatchers (the callees it compiles are nested in it) to its end,
+    failed or not, then restores the thresholds found. Other code's compiles are left as
+    they are."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._depth = 0
+        self._saved = gc.get_threshold()
+
+    def on_start(self, event):
+        with self._lock:
+            if self._depth == 0:
+                if not _ours(event.data):
+                    return
+                self._saved = gc.get_threshold()
+                gc.set_threshold(*COMPILE_GC_THRESHOLDS)
+            self._depth += 1
+
+    def on_end(self, event):
+        with self._lock:
+            if self._depth == 0:
+                return
+            self._depth -= 1
+            if self._depth == 0:
+                gc.set_threshold(*self._saved)
+
+
+def _ours(data) -> bool:
+    module = getattr(getattr(data.get("dispatcher"), "py_func", None), "__module__", "")
+    return module == _PACKAGE or module.startswith(f"{_PACKAGE}.")
+
+
+_event.register("numba:compile", _RelaxedCollector())
