@@ -162,18 +162,24 @@ def kernel_cache() -> Iterator[None]:
 FLAGS = {"error_model": "numpy", "nogil": True}
 
 
-def jit(**options):
+def jit(entry: bool = False, **options):
     """``numba.njit`` with the package's :data:`FLAGS` (for helpers compiled into kernels).
 
     Compile time: every dispatcher a kernel calls costs 0.1-0.3 s of its own (its machine
-    code, which includes all it calls again, and its Python wrapper), and every
-    ``inline="always"`` call site costs the callee's front end again and deep copies of
-    its IR, everything inlined into it included, whose cost grows with its blocks times
-    its variables: at each level of a nest of inlined helpers the whole subtree is copied
-    once more. So what runs per step is inlined, in as few levels as will do; what runs
-    once per point or event is compiled once and called
-    (``benchmarks/run_all.py --only startup_compile_fresh``).
+    code, which includes all it calls again), and every ``inline="always"`` call site costs
+    the callee's front end again and deep copies of its IR, everything inlined into it
+    included, whose cost grows with its blocks times its variables: at each level of a nest
+    of inlined helpers the whole subtree is copied once more. So what runs per step is
+    inlined, in as few levels as will do; what runs once per point or event is compiled
+    once and called (``benchmarks/run_all.py --only startup_compile_fresh``).
+
+    A called helper gets no Python or C wrapper (only kernels call it: building the
+    wrappers that unbox its named-tuple arguments cost 0.3 s of the first ``cor()``); one
+    that Python calls too (a test, a diagnostic) says ``entry=True``. Inlined helpers keep
+    theirs, which costs nothing until Python calls them.
     """
+    if not entry and options.get("inline") != "always":
+        options = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True, **options}
     return numba.njit(**FLAGS, **options)
 
 

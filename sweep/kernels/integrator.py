@@ -214,7 +214,7 @@ def _solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
 
 
 #: The per-point solve compiled once, for callers of single points (the CUDA kernel, tests).
-solve_point = jit()(_solve_point)
+solve_point = jit(entry=True)(_solve_point)
 
 
 class Refining(NamedTuple):

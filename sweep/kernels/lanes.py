@@ -196,7 +196,7 @@ def _any(live):
     return False
 
 
-@jit()
+@jit(entry=True)
 def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol, ends):
     """March the points ``i = todo[j]`` of the parameter arrays, :data:`LANES` at a time.
 

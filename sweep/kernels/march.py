@@ -490,7 +490,7 @@ def march(c, p, rest_tol, max_steps, K, K2, Q, e_tol=0.0):
             return end
 
 
-@jit()
+@jit(entry=True)
 def march_point(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, e_tol=0.0):
     """The :class:`Ending` of one point's march (for diagnostics and tests)."""
     K, K2, Q = scratch()
