@@ -1,4 +1,5 @@
-"""The kernel cache key: every package module a kernel imports, whatever the import form."""
+"""The kernel cache key (every package module a kernel imports, whatever the import form) and
+the compile-time settings of :mod:`sweep.kernels._jit`."""
 import gc
 import shutil
 import subprocess
@@ -158,3 +159,20 @@ def test_a_failed_compile_restores_the_thresholds(thresholds):
         _as_if_in("sweep.kernels.fake", broken)(1.0)
     assert rec.seen == [("broken", _jit.COMPILE_GC_THRESHOLDS)]
     assert gc.get_threshold() == before
+
+
+def test_a_called_helper_serves_kernels_and_refuses_python():
+    def plus_one(x):
+        return x + 1.0
+
+    def twice(x):
+        return helper(x) * 2.0
+
+    helper = _jit.jit()(plus_one)
+    entry = _jit.jit(entry=True)(twice)
+    assert entry(1.5) == 5.0
+    # Compiled without a Python wrapper: a call from Python must be refused, not crash.
+    with pytest.raises(TypeError, match="plus_one is compiled for kernels only"):
+        helper(1.5)
+    inlined = _jit.jit(inline="always")(plus_one)
+    assert inlined(1.5) == 2.5

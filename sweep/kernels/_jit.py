@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numba
 from numba.core import event as _event
+from numba.core.registry import CPUDispatcher
 
 __all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "package_imports",
            "jit", "cached_jit", "FLAGS", "COMPILE_GC_THRESHOLDS"]
@@ -178,9 +179,26 @@ def jit(entry: bool = False, **options):
     that Python calls too (a test, a diagnostic) says ``entry=True``. Inlined helpers keep
     theirs, which costs nothing until Python calls them.
     """
-    if not entry and options.get("inline") != "always":
-        options = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True, **options}
-    return numba.njit(**FLAGS, **options)
+    if entry or options.get("inline") == "always":
+        return numba.njit(**FLAGS, **options)
+
+    def wrap(fn):
+        dispatcher = numba.njit(no_cpython_wrapper=True, no_cfunc_wrapper=True, **FLAGS,
+                                **options)(fn)
+        # Called from Python, a dispatcher without its wrapper would jump into nothing (a
+        # segmentation fault): this class refuses the call instead.
+        dispatcher.__class__ = _KernelOnly
+        return dispatcher
+    return wrap
+
+
+class _KernelOnly(CPUDispatcher):
+    """A helper compiled without a Python wrapper: compiled code calls it, Python may not."""
+
+    def __call__(self, *args, **kwargs):
+        raise TypeError(f"{self.py_func.__module__}.{self.py_func.__qualname__} is compiled "
+                        "for kernels only (no Python wrapper); jit(entry=True) makes it "
+                        "callable from Python")
 
 
 def cached_jit(**options):
@@ -213,7 +231,7 @@ class _RelaxedCollector(_event.Listener):
     def __init__(self):
         self._lock = threading.Lock()
         self._depth = 0
-        self._saved = gc.get_threshold()
+        self._saved = None
 
     def on_start(self, event):
         with self._lock:
