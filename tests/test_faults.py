@@ -13,6 +13,7 @@ import socket
 import subprocess
 import sys
 import time
+import traceback
 from pathlib import Path
 
 import netCDF4
@@ -452,6 +453,13 @@ def test_a_failed_scheduler_connection_leaves_no_default_client(tmp_path):
         with pytest.raises(ValueError):
             distributed.Client.current(allow_global=True)
         assert dask.config.get("scheduler", None) is None
+        # ... and the client it holds is closed: finalised by the garbage collector in the
+        # thread that started the next client's loop, its close blocked that start for
+        # 10 s and failed it (seen once in CI, at the second address).
+        held = [frame.f_locals["self"] for frame, _ in
+                traceback.walk_tb(info.value.__cause__.__traceback__)
+                if isinstance(frame.f_locals.get("self"), distributed.Client)]
+        assert held and all(client.status == "closed" for client in held)
 
 
 # --------------------------------------------------------------------------- the command line

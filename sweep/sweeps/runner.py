@@ -70,6 +70,7 @@ import signal
 import sys
 import threading
 import time
+import traceback
 import uuid
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -412,7 +413,22 @@ def _connect(scheduler, timeout):
         # dask compute of the process, which then waited on it for ever.
         return Client(scheduler, timeout=timeout, set_as_default=False), True
     except (OSError, ValueError, TypeError) as exc:  # timeouts are OSErrors in distributed
+        _close_unconnected(exc, Client)
         raise RunError(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from exc
+
+
+def _close_unconnected(exc, client_type):
+    """Close the client that a failed ``Client(...)`` left half built, reachable only from
+    the frames of ``exc``. Left to the garbage collector, its close ran in whatever thread
+    collected it; run in the thread that starts another client's event loop, it waited
+    for distributed's loop-runner lock, which that start holds while it waits for the
+    thread, so the start failed after 10 s (an AssertionError out of ``Client``)."""
+    for frame, _ in traceback.walk_tb(exc.__traceback__):
+        client = frame.f_locals.get("self")
+        if isinstance(client, client_type):
+            with contextlib.suppress(Exception):
+                client.close()
+            return
 
 
 def _dask_executor(plan, tasks, client):
