@@ -139,7 +139,7 @@ def test_the_collector_is_relaxed_while_a_package_kernel_compiles(thresholds):
 
 
 def test_other_code_compiles_with_the_thresholds_it_has(thresholds):
-    rec, before = thresholds
+    rec, _ = thresholds
     gc.set_threshold(500, 7, 9)
 
     def theirs(x):

@@ -106,10 +106,14 @@ def _borrow(ln):
 
 @jit(inline="always")
 def _lanes():
-    return Lanes(np.full(LANES, -1, np.int64), np.zeros(LANES, np.bool_),
-                 np.empty((LANES, 4)), np.empty((LANES, 4), np.int64), np.empty((LANES, 7)),
-                 np.empty((LANES, 14)), np.empty((LANES, 6), np.int64), np.empty(LANES),
-                 np.empty(LANES), np.empty(LANES), np.empty((LANES, 3)),
+    # np.full and np.zeros would each compile an implementation of their own.
+    point = np.empty(LANES, np.int64)
+    point[:] = -1
+    live = np.empty(LANES, np.bool_)
+    live[:] = False
+    return Lanes(point, live, np.empty((LANES, 4)), np.empty((LANES, 4), np.int64),
+                 np.empty((LANES, 7)), np.empty((LANES, 14)), np.empty((LANES, 6), np.int64),
+                 np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((LANES, 3)),
                  np.empty((LANES, N_STAGES, 3)))
 
 
