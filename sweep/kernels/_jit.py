@@ -175,7 +175,7 @@ def jit(entry: bool = False, **options):
     once and called (``benchmarks/run_all.py --only startup_compile_fresh``).
 
     A called helper gets no Python or C wrapper (only kernels call it: building the
-    wrappers that unbox its named-tuple arguments cost 0.3 s of the first ``cor()``); one
+    wrappers that unbox its named-tuple arguments cost about 0.5 s of the first calls); one
     that Python calls too (a test, a diagnostic) says ``entry=True``. Inlined helpers keep
     theirs, which costs nothing until Python calls them.
     """
