@@ -73,11 +73,22 @@ def test_theta_matches_extended_precision_root():
             assert abs(t0 / float(ref) - 1) <= 8 * EPS, (alpha, g)
 
 
+@pytest.mark.parametrize("alpha", [1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 1.37, 2.81])
+def test_umax_is_the_root_of_13_to_rounding(alpha):
+    # The report's exponents take the pow-free powers of their codes, the others pow; the
+    # Newton iteration starts from an upper bound at every load (mpmath bisection here).
+    from reference import umax_mp
+    ka = contact.make_law(alpha, alpha, 0.0, 0.0).ka
+    for g in (0.0, 1e-9, 1e-3, 0.3, 1.0, 7.0, 500.0, 1e6, 1e12):
+        ref = float(umax_mp(alpha, g))
+        assert contact.umax_undamped(alpha, g, ka) == pytest.approx(ref, rel=4 * EPS), (alpha, g)
+
+
 @pytest.mark.parametrize("alpha", [1.0, 1.5, 3.0])
 def test_theta_agrees_with_umax(alpha):
     # (43) is the definition u_M^(a+1)/(a+1) = 1/(2 theta), with u_M the root of (13).
     for g in (0.0, 1e-3, 0.3, 7.0, 500.0):
-        um = contact.umax_undamped(alpha, g)
+        um = contact.umax_undamped(alpha, g, contact.make_law(alpha, alpha, 0.0, 0.0).ka)
         assert S.theta_of_gtilde(alpha, g) == pytest.approx((alpha + 1) / (2 * um ** (alpha + 1)),
                                                             rel=1e-14)
 

@@ -32,7 +32,7 @@ from typing import NamedTuple
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import equilibrium, potential
+from sweep.kernels.contact import damping_rate, equilibrium, potential, ppow_called
 
 __all__ = ["Creep", "creep_constants", "never_leaves", "never_leaves_from_start",
            "near_slow_branch", "jump", "energy_margin", "ROUNDING_V"]
@@ -110,8 +110,9 @@ def never_leaves(c, k, u, w, v, h):
 
 @jit(inline="always")
 def slow_velocity(u, c):
-    """Leading-order slow branch ``V = (g~ - u^alpha) / (gamma beta u^(beta-1))``."""
-    return (c.gtilde - u ** c.alpha) / (c.gamma * c.beta * u ** (c.beta - 1.0))
+    """Leading-order slow branch ``V = (g~ - u^alpha) / (gamma beta u^(beta-1))`` (u > 0;
+    judged at every step of a creeping bead: the report's exponents take no pow)."""
+    return (c.gtilde - ppow_called(u, c.alpha, c.ka)) / damping_rate(u, c)
 
 
 @jit(inline="always")

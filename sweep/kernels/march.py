@@ -38,8 +38,9 @@ from typing import NamedTuple
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import (accel, damping_ratio, dissipated, make_law,
-                                   potential, ppow_called, rhs_called, velocity)
+from sweep.kernels.contact import (accel, damping_rate, damping_ratio, dissipated,
+                                   elastic_frequency, make_law, potential, ppow_called,
+                                   rhs_called, velocity)
 from sweep.kernels.creep import (ROUNDING_V, creep_constants, energy_margin, jump,
                                  near_slow_branch, never_leaves)
 from sweep.kernels.events import ON_U, ON_V, locate
@@ -137,13 +138,13 @@ def _capped(u, w, s, u1, w1, dr, fu0, fw0, fr0, p, K, c, n, max_steps):
     # A load can drive the bead deep into the damper within one step: judge the cap at the
     # step's end too and retake the step if it was exceeded (twice: slack against
     # retaking steps for nothing).
-    s_end = damping_step(u1, c.beta, c.gamma, p.steps)
+    s_end = damping_step(u1, c, p.steps)
     while not (s <= 2.0 * s_end and math.isfinite(u1) and math.isfinite(w1)) and n < max_steps:
         s = s_end if s_end < 0.5 * s else 0.5 * s
         _set_first_stage(K, fu0, fw0, fr0)
         u1, w1, dr = rk_step(u, w, s, K, c)
         n += 1
-        s_end = damping_step(u1, c.beta, c.gamma, p.steps)
+        s_end = damping_step(u1, c, p.steps)
     return u1, w1, dr, s, n
 
 
@@ -264,7 +265,7 @@ def _creep_rule(c, k, u, w, r, v, e0, e_tol, phase):
 @jit(inline="always")
 def _overdamped_here(u, c):
     """The local damping rate exceeds twice the local elastic frequency (zeta(u) >= 1)."""
-    return c.gamma * c.beta * u ** (c.beta - 1.0) >= 2.0 * math.sqrt(c.alpha * u ** (c.alpha - 1.0))
+    return u > 0.0 and damping_rate(u, c) >= 2.0 * elastic_frequency(c.alpha, u)
 
 
 @jit(inline="always")

@@ -78,8 +78,8 @@ def undamped(c):
     """gamma = 0: no dissipation, so ``e = 1`` exactly (energy balance) at any load."""
     if c.gamma != 0.0:
         return _none()
-    return True, 1.0, undamped_duration(c.alpha, c.gtilde), umax_undamped(c.alpha, c.gtilde), \
-        _OK, 0.0
+    return (True, 1.0, undamped_duration(c.alpha, c.gtilde),
+            umax_undamped(c.alpha, c.gtilde, c.ka), _OK, 0.0)
 
 
 @jit(inline="always")
@@ -121,7 +121,7 @@ def deep_well(c):
     # 2 gamma C g~^r in logarithms: each factor may overflow alone.
     log_loss = math.log(2.0 * k) + math.log(c.gamma) + r * log_g
     t_f = undamped_duration(c.alpha, c.gtilde)
-    u_max = umax_undamped(c.alpha, c.gtilde)
+    u_max = umax_undamped(c.alpha, c.gtilde, c.ka)
     if log_loss >= 0.0:
         return True, 0.0, t_f, u_max, _STUCK, 0.0
     e2 = -math.expm1(log_loss)

@@ -84,15 +84,15 @@ def base_step(omega, depth, steps):
 
 
 @jit(inline="always")
-def damping_limited(beta, gamma, um, omega, depth):
+def damping_limited(c, um, omega, depth):
     """Whether the damping cap can bind: damping rate at u_M above ``omega_M D``."""
-    return damping_rate(um, beta, gamma) > omega * depth
+    return damping_rate(um, c) > omega * depth
 
 
 @jit(inline="always")
-def damping_step(u, beta, gamma, steps):
+def damping_step(u, c, steps):
     """Cap ``pi / (steps * gamma beta u^(beta-1))`` (inf where the rate vanishes)."""
-    rate = damping_rate(u, beta, gamma)
+    rate = damping_rate(u, c)
     return math.pi / (steps * rate) if rate > 0.0 else math.inf
 
 
@@ -151,13 +151,13 @@ class StepPolicy(NamedTuple):
 @jit()
 def policy(c, steps):
     """The :class:`StepPolicy` of the point with contact law ``c`` at resolution ``steps``."""
-    um = umax_undamped(c.alpha, c.gtilde)
+    um = umax_undamped(c.alpha, c.gtilde, c.ka)
     omega = elastic_frequency(c.alpha, um)
     depth = _depth_factor(c.alpha, c.gtilde)
     h = base_step(omega, depth, steps)
     rho, first = grading(steps)
     return StepPolicy(h, rho, first * h, steps, needs_grading(c.alpha, c.beta),
-                      damping_limited(c.beta, c.gamma, um, omega, depth), False, omega)
+                      damping_limited(c, um, omega, depth), False, omega)
 
 
 @jit(inline="always")
@@ -188,13 +188,11 @@ def _capped_step(u, v, s, p, c):
     bead (speed and load push it deeper): the fixed point of ``s = cap(u(s))``, approached
     by geometric means (the cap falls as s grows)."""
     for _ in range(4):
-        cap = damping_step(u + s * max(v, 0.0) + 0.5 * s * s * c.gtilde, c.beta, c.gamma,
-                           p.steps)
+        cap = damping_step(u + s * max(v, 0.0) + 0.5 * s * s * c.gtilde, c, p.steps)
         if cap >= s:
             return s
         s = math.sqrt(s * cap)
-    return min(s, damping_step(u + s * max(v, 0.0) + 0.5 * s * s * c.gtilde, c.beta,
-                               c.gamma, p.steps))
+    return min(s, damping_step(u + s * max(v, 0.0) + 0.5 * s * s * c.gtilde, c, p.steps))
 
 
 @jit(inline="always")
@@ -205,5 +203,5 @@ def first_guess(u, v, p, c):
     # alpha > 1), and the creep's own time scale u / |v| then bounds it.
     s = graded_step(u, v, h, p.rho, s_min) if (p.graded or p.local) else h
     if p.capped:
-        s = _capped_step(u, v, min(s, damping_step(u, c.beta, c.gamma, p.steps)), p, c)
+        s = _capped_step(u, v, min(s, damping_step(u, c, p.steps)), p, c)
     return s
