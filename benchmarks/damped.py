@@ -3,7 +3,7 @@
     python benchmarks/damped.py [--n 100000] [--check 200] [--repeat 3] [--serial]
 
 The core draw of ``benchmarks/run_all.py`` with the damping raised: gamma = 10**U(0, 2),
-then g~ = 10**U(-3, 1) (``default_rng(0)``), for KK, SHC, TTI and general exponents (alpha,
+then g~ = 10**U(-3, 1) (``default_rng(0)``, ``run_all.draw``), for KK, SHC, TTI and general exponents (alpha,
 beta ~ U[1, 3]). Here the damping rate ``gamma beta u^(beta-1)`` caps the steps
 (``sweep.kernels.stepsize``), several times a step, and the creep rules run at every step
 of the return (``sweep.kernels.march``). Prints one JSON line per law: points/s of
@@ -20,25 +20,17 @@ import time
 import numpy as np
 
 import sweep
-from run_all import ROOT, reference_e, sweep_threads
+from run_all import ROOT, draw, reference_e, sweep_threads
 
-LAWS = {"kk": (1.5, 1.5), "shc": (1.5, 2.5), "tti": (1.5, 1.25), "general": None}
+LAWS = ("kk", "shc", "tti", "general")     # names of run_all.LAWS
+#: log10(gamma) of the draw: heavily damped.
+LOG_GAMMA = (0.0, 2.0)
 TOL = 1e-8
-
-
-def draw(n: int, law: str):
-    """``(alpha, beta, gamma, g~)`` of the damped draw."""
-    rng = np.random.default_rng(0)
-    gamma = 10 ** rng.uniform(0.0, 2.0, n)
-    gtilde = 10 ** rng.uniform(-3.0, 1.0, n)
-    if LAWS[law] is None:
-        return rng.uniform(1.0, 3.0, n), rng.uniform(1.0, 3.0, n), gamma, gtilde
-    return np.full(n, LAWS[law][0]), np.full(n, LAWS[law][1]), gamma, gtilde
 
 
 def figure(law: str, args) -> dict:
     """One law's line: speed, steps and error against DOP853."""
-    a, b, g, G = draw(args.n, law)
+    a, b, g, G = draw(args.n, law, LOG_GAMMA)
     parallel = not args.serial
     sweep.integrate(a[:256], b[:256], g[:256], G[:256], tol=TOL, parallel=parallel)
     best, r = np.inf, None
@@ -63,7 +55,7 @@ def main() -> None:
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--serial", action="store_true", help="one thread (parallel=False)")
     p.add_argument("--cache-dir", default=str(ROOT / "benchmarks" / ".cache"))
-    p.add_argument("--only", nargs="+", choices=list(LAWS), default=list(LAWS))
+    p.add_argument("--only", nargs="+", choices=LAWS, default=list(LAWS))
     args = p.parse_args()
     for law in args.only:
         print(json.dumps(figure(law, args)), flush=True)
