@@ -2,14 +2,14 @@
 
     python benchmarks/damped.py [--n 100000] [--check 200] [--repeat 3] [--serial]
 
-The core draw of ``benchmarks/run_all.py`` (``run_all.draw``) with the damping raised:
-gamma = 10**U(0, 2), then g~ = 10**U(-3, 1) (``default_rng(0)``), for KK, SHC, TTI and
-general exponents (alpha, beta ~ U[1, 3]). Here the damping rate ``gamma beta u^(beta-1)``
-caps the steps (``sweep.kernels.stepsize``), several times a step, and the creep rules run at every step
-of the return (``sweep.kernels.march``). Prints one JSON line per law: points/s of
-``sweep.integrate(..., tol=1e-8)`` on all cores (``--serial``: one), best of
-``--repeat``, the mean steps per point, and the max abs error against the tests' DOP853
-reference on ``--check`` points of the same draw (cached as run_all.py caches it).
+The core draw of ``benchmarks/run_all.py`` (``run_all.draw``) with the damping raised: gamma
+= 10**U(0, 2), then g~ = 10**U(-3, 1) (``default_rng(0)``), for KK, SHC, TTI and general
+exponents (alpha, beta ~ U[1, 3]). Here the damping rate ``gamma beta u^(beta-1)`` caps the
+steps (``sweep.kernels.stepsize``), several times a step, and the creep rules run at every
+step of the return (``sweep.kernels.march``). Prints one JSON line per law: points/s of
+``sweep.integrate(..., tol=1e-8)`` on all cores (``--serial``: one), best of ``--repeat``,
+the mean steps per point, and the max abs error against the tests' DOP853 reference on
+``--check`` points of the same draw (cached as run_all.py caches it).
 """
 from __future__ import annotations
 
