@@ -579,4 +579,3 @@ def test_signals_wait_for_the_end_of_the_publication():
     finally:
         signal.signal(signal.SIGTERM, previous)
     assert reached
-
