@@ -1,0 +1,103 @@
+"""Event location and the detachment's refinement against the exact linear solution.
+
+For the linear spring-dashpot (alpha = beta = 1) u(tau) is known in closed form
+(``reference.linear_solution``), and so is the detachment time T_f (``linear_cor``). One
+Runge-Kutta step is started from the exact state a fraction of a step before T_f; the
+detachment found in that step must sit at T_f to the step's own accuracy, and its Newton
+iteration on the re-stepped state must end after a few re-steps, at a root of the re-step.
+"""
+from __future__ import annotations
+
+import math
+
+import mpmath
+import numba
+import numpy as np
+import pytest
+
+from reference import linear_cor, linear_solution
+from sweep.kernels.contact import make_law, rhs
+from sweep.kernels.events import ON_U, locate
+from sweep.kernels.march import _detach
+from sweep.kernels.stepper import N_DENSE, N_STAGES, dense_coefficients, rk_step
+
+EPS = np.finfo(float).eps
+
+
+@numba.njit
+def _one_step(u0, w0, s, c):
+    """One step from (u0, w0): its stages and dense output, as the march leaves them."""
+    K = np.zeros((N_STAGES, 3))
+    K2 = np.zeros((N_STAGES, 3))
+    Q = np.zeros((2, N_DENSE))
+    K[0, 0], K[0, 1], K[0, 2] = rhs(u0, w0, c)
+    u1, w1, _ = rk_step(u0, w0, s, K, c)
+    dense_coefficients(K, s, Q)
+    return u1, K, K2, Q
+
+
+@numba.njit
+def _detachment(u0, w0, s, c):
+    """``(d, v_f, re-steps used, u after a re-step of d)`` for the step s from (u0, w0)."""
+    u1, K, K2, Q = _one_step(u0, w0, s, c)
+    d, _, v_f, used = _detach(u0, w0, 0.0, s, 0.0, 1.0, Q, K, K2, c)
+    K2[0, 0], K2[0, 1], K2[0, 2] = K[0, 0], K[0, 1], K[0, 2]
+    u_d, _, _ = rk_step(u0, w0, d, K2, c)
+    return d, v_f, used, u_d, u1
+
+
+@numba.njit
+def _located(u0, w0, s, c):
+    u1, K, K2, Q = _one_step(u0, w0, s, c)
+    return locate(ON_U, 0.0, u0, w0, Q, c, 0.0, 1.0), Q
+
+
+def _exact_state(gamma, gtilde, tau):
+    """(u, w) of the linear law at tau, w = u' + gamma u (the Lipschitz form's state)."""
+    u, du, _, _ = linear_solution(gamma, gtilde)
+    with mpmath.workdps(40):
+        t = mpmath.mpf(tau)
+        return float(u(t)), float(du(t) + gamma * u(t)), float(du(t))
+
+
+# Laws whose bead leaves (at gamma = 1.2 it sticks for any load).
+CASES = [(0.01, 0.0), (0.01, 0.05), (0.01, 0.4), (0.3, 0.0), (0.3, 0.2), (0.3, 0.4), (1.2, 0.0)]
+
+
+@pytest.mark.parametrize("gamma, gtilde", CASES)
+def test_detachment_is_the_exact_exit_time(gamma, gtilde):
+    exact = linear_cor(gamma, gtilde)
+    assert not exact.sticks
+    law = make_law(1.0, 1.0, gamma, gtilde)
+    s = math.pi / 33.0              # 33 steps a half period, as tol = 1e-8 takes
+    used = []
+    for frac in np.linspace(0.03, 0.97, 25):
+        t0 = exact.t_f - frac * s
+        u0, w0, _ = _exact_state(gamma, gtilde, t0)
+        d, v_f, n, u_d, u1 = _detachment(u0, w0, s, law)
+        assert u1 < 0.0 < u0
+        used.append(n)
+        # One step's error (s^6) bounds where the detachment is and how fast the bead leaves.
+        assert abs(t0 + d - exact.t_f) <= 1e-9, (frac, t0 + d, exact.t_f)
+        assert abs(-v_f - exact.e) <= 1e-9, (frac, -v_f, exact.e)
+        # Newton ended on a root of the re-step: what is left of u is rounding.
+        assert abs(u_d) <= 8 * EPS * u0, (frac, u_d, u0)
+    # A few re-steps each (it used to swing between two neighbouring floats up to its cap
+    # of 12 where its stop was below one ulp of d).
+    assert max(used) <= 4, used
+
+
+@pytest.mark.parametrize("gamma, gtilde", CASES[::2])
+def test_located_exit_is_the_root_of_the_interpolant(gamma, gtilde):
+    exact = linear_cor(gamma, gtilde)
+    law = make_law(1.0, 1.0, gamma, gtilde)
+    s = math.pi / 33.0
+    for frac in (0.1, 0.5, 0.9):
+        u0, w0, _ = _exact_state(gamma, gtilde, exact.t_f - frac * s)
+        th, Q = _located(u0, w0, s, law)
+        # The interpolant u0 + sum_j Q[0, j] theta^(j+1), its roots by numpy's companion matrix.
+        roots = np.roots(np.r_[Q[0, ::-1], u0])
+        real = roots[(abs(roots.imag) < 1e-12) & (roots.real > 0) & (roots.real < 1)].real
+        assert real.size == 1
+        assert abs(th - real[0]) <= 1e-13, (th, real[0])
+        assert abs(th - frac) <= 1e-7
