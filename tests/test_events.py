@@ -17,7 +17,7 @@ import pytest
 
 from reference import linear_cor, linear_solution
 from sweep.kernels.contact import make_law, rhs
-from sweep.kernels.events import ON_U, locate
+from sweep.kernels.events import ON_U, ON_V, locate
 from sweep.kernels.march import _detach
 from sweep.kernels.stepper import N_DENSE, N_STAGES, dense_coefficients, rk_step
 
@@ -47,9 +47,17 @@ def _detachment(u0, w0, s, c):
 
 
 @numba.njit
-def _located(u0, w0, s, c):
+def _located(which, u0, w0, s, c):
     u1, K, K2, Q = _one_step(u0, w0, s, c)
-    return locate(ON_U, 0.0, u0, w0, Q, c, 0.0, 1.0), Q
+    return locate(which, 0.0, u0, w0, Q, c, 0.0, 1.0), Q
+
+
+def _root_in_step(coefficients):
+    """The one real root in (0, 1) of the polynomial (highest power first), by numpy."""
+    roots = np.roots(coefficients)
+    real = roots[(abs(roots.imag) < 1e-12) & (roots.real > 0) & (roots.real < 1)].real
+    assert real.size == 1, roots
+    return real[0]
 
 
 def _exact_state(gamma, gtilde, tau):
@@ -94,10 +102,22 @@ def test_located_exit_is_the_root_of_the_interpolant(gamma, gtilde):
     s = math.pi / 33.0
     for frac in (0.1, 0.5, 0.9):
         u0, w0, _ = _exact_state(gamma, gtilde, exact.t_f - frac * s)
-        th, Q = _located(u0, w0, s, law)
-        # The interpolant u0 + sum_j Q[0, j] theta^(j+1), its roots by numpy's companion matrix.
-        roots = np.roots(np.r_[Q[0, ::-1], u0])
-        real = roots[(abs(roots.imag) < 1e-12) & (roots.real > 0) & (roots.real < 1)].real
-        assert real.size == 1
-        assert abs(th - real[0]) <= 1e-13, (th, real[0])
+        th, Q = _located(ON_U, u0, w0, s, law)
+        # The interpolant u0 + sum_j Q[0, j] theta^(j+1).
+        assert abs(th - _root_in_step(np.r_[Q[0, ::-1], u0])) <= 1e-13
+        assert abs(th - frac) <= 1e-7
+
+
+@pytest.mark.parametrize("gamma, gtilde", CASES[::2])
+def test_located_turn_is_the_root_of_the_interpolated_velocity(gamma, gtilde):
+    _, _, xi, om = linear_solution(gamma, gtilde)
+    tau0 = float(mpmath.atan2(om, xi - gtilde) / om)      # maximum compression, u' = 0
+    law = make_law(1.0, 1.0, gamma, gtilde)
+    s = math.pi / 33.0
+    for frac in (0.1, 0.5, 0.9):
+        u0, w0, _ = _exact_state(gamma, gtilde, tau0 - frac * s)
+        th, Q = _located(ON_V, u0, w0, s, law)
+        # v = w - gamma u on the interpolant, a polynomial for the linear law.
+        v = np.r_[Q[1, ::-1] - gamma * Q[0, ::-1], w0 - gamma * u0]
+        assert abs(th - _root_in_step(v)) <= 1e-13
         assert abs(th - frac) <= 1e-7

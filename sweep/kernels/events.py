@@ -12,12 +12,13 @@ from __future__ import annotations
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import velocity
-from sweep.kernels.stepper import dense_eval
+from sweep.kernels.stepper import N_DENSE, dense_eval
 
 __all__ = ["ON_U", "ON_V", "event_value", "locate"]
 
 ON_U = 0
 ON_V = 1
+_EPS = 2.220446049250313e-16
 
 
 @jit(inline="always")
@@ -26,6 +27,23 @@ def event_value(which, target, u, w, c):
     if which == ON_U:
         return u - target
     return velocity(u, w, c)
+
+
+@jit(inline="always")
+def _rounding(which, target, u0, w0, Q):
+    """Bound on the rounding of the event function on the interpolant: twice eps times the
+    sum of the magnitudes it is formed from (for v = w - gamma u^beta near v = 0, the
+    damper's term is about w itself)."""
+    if which == ON_U:
+        scale = abs(u0) + abs(target)
+        for j in range(N_DENSE):
+            scale += abs(Q[0, j])
+    else:
+        scale = abs(w0)
+        for j in range(N_DENSE):
+            scale += abs(Q[1, j])
+        scale *= 2.0
+    return 2.0 * _EPS * scale
 
 
 @jit()
@@ -45,6 +63,7 @@ def locate(which, target, u0, w0, Q, c, ta, tb):
         return ta
     if (fa > 0.0) == (fb > 0.0):
         return tb
+    noise = _rounding(which, target, u0, w0, Q)
     a, b = ta, tb
     for _ in range(200):
         x = b - fb * (b - a) / (fb - fa)
@@ -52,7 +71,8 @@ def locate(which, target, u0, w0, Q, c, ta, tb):
             x = 0.5 * (a + b)
         u, w = dense_eval(u0, w0, Q, x)
         fx = event_value(which, target, u, w, c)
-        if fx == 0.0:
+        if abs(fx) <= noise:
+            # Its sign is rounding: the iterations after this one only swung about the root.
             return x
         if (fx > 0.0) != (fb > 0.0):
             a, fa = b, fb
