@@ -118,44 +118,48 @@ def _lanes():
 
 
 @jit(inline="always")
-def _state(ln, l):
-    F = ln.SF
-    I = ln.SI
-    p = StepPolicy(F[l, _H], F[l, _RHO], F[l, _SMIN], F[l, _STEPS], I[l, _GRADED] != 0,
-                   I[l, _CAPPED] != 0, I[l, _LOCAL] != 0, F[l, _OMEGA])
-    return State(F[l, _T], ln.u[l], ln.w[l], F[l, _R], F[l, _RC], F[l, _V], F[l, _E0],
-                 F[l, _QS], I[l, _PHASE], F[l, _UMAX], I[l, _N], F[l, _LW], F[l, _LQ], p,
-                 I[l, _EP1] != 0)
+def _state(ln, lane):
+    f = ln.SF
+    n = ln.SI
+    p = StepPolicy(f[lane, _H], f[lane, _RHO], f[lane, _SMIN], f[lane, _STEPS],
+                   n[lane, _GRADED] != 0, n[lane, _CAPPED] != 0, n[lane, _LOCAL] != 0,
+                   f[lane, _OMEGA])
+    return State(f[lane, _T], ln.u[lane], ln.w[lane], f[lane, _R], f[lane, _RC], f[lane, _V],
+                 f[lane, _E0], f[lane, _QS], n[lane, _PHASE], f[lane, _UMAX], n[lane, _N],
+                 f[lane, _LW], f[lane, _LQ], p, n[lane, _EP1] != 0)
 
 
 @jit(inline="always")
-def _put_state(ln, l, st):
-    F = ln.SF
-    I = ln.SI
-    ln.u[l] = st.u
-    ln.w[l] = st.w
-    F[l, _T], F[l, _R], F[l, _RC], F[l, _V] = st.t, st.r, st.rc, st.v
-    F[l, _E0], F[l, _QS], F[l, _UMAX], F[l, _LW], F[l, _LQ] = (st.e0, st.q_stuck, st.u_max,
-                                                               st.lw, st.lq)
+def _put_state(ln, lane, st):
+    f = ln.SF
+    n = ln.SI
+    ln.u[lane] = st.u
+    ln.w[lane] = st.w
+    f[lane, _T], f[lane, _R], f[lane, _RC], f[lane, _V] = st.t, st.r, st.rc, st.v
+    f[lane, _E0], f[lane, _QS], f[lane, _UMAX] = st.e0, st.q_stuck, st.u_max
+    f[lane, _LW], f[lane, _LQ] = st.lw, st.lq
     p = st.p
-    F[l, _H], F[l, _RHO], F[l, _SMIN], F[l, _STEPS], F[l, _OMEGA] = (p.h, p.rho, p.s_min,
-                                                                     p.steps, p.omega)
-    I[l, _PHASE], I[l, _N], I[l, _EP1] = st.phase, st.n, 1 if st.energy_in_phase1 else 0
-    I[l, _GRADED], I[l, _CAPPED], I[l, _LOCAL] = (1 if p.graded else 0, 1 if p.capped else 0,
-                                                  1 if p.local else 0)
+    f[lane, _H], f[lane, _RHO], f[lane, _SMIN] = p.h, p.rho, p.s_min
+    f[lane, _STEPS], f[lane, _OMEGA] = p.steps, p.omega
+    n[lane, _PHASE], n[lane, _N], n[lane, _EP1] = (st.phase, st.n,
+                                                   1 if st.energy_in_phase1 else 0)
+    n[lane, _GRADED], n[lane, _CAPPED], n[lane, _LOCAL] = (1 if p.graded else 0,
+                                                           1 if p.capped else 0,
+                                                           1 if p.local else 0)
 
 
 @jit(inline="always")
-def _put_creep(ln, l, k):
+def _put_creep(ln, lane, k):
     C = ln.CR
-    C[l, 0], C[l, 1], C[l, 2], C[l, 3] = k.kappa, k.p, k.u_c, k.f_uc
-    C[l, 4], C[l, 5], C[l, 6] = k.ubar, k.u_jump, k.u_t
+    C[lane, 0], C[lane, 1], C[lane, 2], C[lane, 3] = k.kappa, k.p, k.u_c, k.f_uc
+    C[lane, 4], C[lane, 5], C[lane, 6] = k.ubar, k.u_jump, k.u_t
 
 
 @jit(inline="always")
-def _creep_at(ln, l):
+def _creep_at(ln, lane):
     C = ln.CR
-    return Creep(C[l, 0], C[l, 1], C[l, 2], C[l, 3], C[l, 4], C[l, 5], C[l, 6])
+    return Creep(C[lane, 0], C[lane, 1], C[lane, 2], C[lane, 3], C[lane, 4], C[lane, 5],
+                 C[lane, 6])
 
 
 @jit(inline="always")
@@ -177,17 +181,17 @@ def ending_at(E, j):
 def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps):
     """Idle lanes take the next entries of ``todo`` (their marches started as march()
     starts them), while there are any; returns the next entry."""
-    for l in range(LANES):
-        if ln.live[l] or nxt >= todo.size:
+    for lane in range(LANES):
+        if ln.live[lane] or nxt >= todo.size:
             continue
         i = todo[nxt]
         c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
-        st = start(c, policy(c, steps[nxt]), ln.K[l])
-        put_law(ln.LF, ln.LI, l, c)
-        _put_creep(ln, l, creep_constants(c))
-        _put_state(ln, l, st)
-        ln.point[l] = nxt
-        ln.live[l] = True
+        st = start(c, policy(c, steps[nxt]), ln.K[lane])
+        put_law(ln.LF, ln.LI, lane, c)
+        _put_creep(ln, lane, creep_constants(c))
+        _put_state(ln, lane, st)
+        ln.point[lane] = nxt
+        ln.live[lane] = True
         nxt += 1
     return nxt
 
@@ -229,28 +233,28 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps)
     while _any(ln.live):
         idle = False
-        for l in range(LANES):         # the step's size, after march()'s budget test
-            if ln.live[l]:
-                st, c = _state(ln, l), law_at(ln.LF, ln.LI, l)
-                if st.n < budget[ln.point[l]]:
-                    ln.h[l] = first_guess(st.u, st.v, st.p, c)
+        for lane in range(LANES):      # the step's size, after march()'s budget test
+            if ln.live[lane]:
+                st, c = _state(ln, lane), law_at(ln.LF, ln.LI, lane)
+                if st.n < budget[ln.point[lane]]:
+                    ln.h[lane] = first_guess(st.u, st.v, st.p, c)
                 else:
-                    _put_end(ends, ln.point[l], out_of_budget(st, c))
-                    ln.live[l], idle = False, True
+                    _put_end(ends, ln.point[lane], out_of_budget(st, c))
+                    ln.live[lane], idle = False, True
         if not idle:
             rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y)
-            for l in range(LANES):     # the rest of march()'s step
-                if ln.live[l]:
-                    # ln.K[l] is a view of a borrowed array: it costs no count.
-                    st, end = after_stages(_state(ln, l), law_at(ln.LF, ln.LI, l),
-                                           _creep_at(ln, l), ln.h[l], ln.y[l, 0], ln.y[l, 1],
-                                           ln.y[l, 2], ln.K[l], K2, Q, rest_tol, e_tol,
-                                           budget[ln.point[l]])
+            for lane in range(LANES):  # the rest of march()'s step
+                if ln.live[lane]:
+                    # ln.K[lane] is a view of a borrowed array: it costs no count.
+                    st, end = after_stages(_state(ln, lane), law_at(ln.LF, ln.LI, lane),
+                                           _creep_at(ln, lane), ln.h[lane], ln.y[lane, 0],
+                                           ln.y[lane, 1], ln.y[lane, 2], ln.K[lane], K2, Q,
+                                           rest_tol, e_tol, budget[ln.point[lane]])
                     if end.kind == GOING:
-                        _put_state(ln, l, st)
+                        _put_state(ln, lane, st)
                     else:
-                        _put_end(ends, ln.point[l], end)
-                        ln.live[l], idle = False, True
+                        _put_end(ends, ln.point[lane], end)
+                        ln.live[lane], idle = False, True
         if idle:
             nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps)
     # The owners live until the borrowed views are done with.

@@ -148,13 +148,14 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y):
     the arithmetic is :func:`rk_step`'s, operation for operation.
     """
     for i in range(1, N_STAGES):
-        for l in range(live.size):
-            if live[l]:
-                ui, wi = _stage_point_lane(i, u[l], w[l], h[l], K, l)
-                K[l, i, 0], K[l, i, 1], K[l, i, 2] = rhs(ui, wi, law_at(LF, LI, l))
-    for l in range(live.size):
-        if live[l]:
-            y[l, 0], y[l, 1], y[l, 2] = _combine_lane(u[l], w[l], h[l], K, l)
+        for lane in range(live.size):
+            if live[lane]:
+                ui, wi = _stage_point_lane(i, u[lane], w[lane], h[lane], K, lane)
+                K[lane, i, 0], K[lane, i, 1], K[lane, i, 2] = rhs(ui, wi, law_at(LF, LI, lane))
+    for lane in range(live.size):
+        if live[lane]:
+            y[lane, 0], y[lane, 1], y[lane, 2] = _combine_lane(u[lane], w[lane], h[lane], K,
+                                                               lane)
 
 
 @jit(inline="always")
