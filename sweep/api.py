@@ -220,7 +220,8 @@ def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
 
 # --------------------------------------------------------------------------- coefficients
 
-def _pair(which: str, names: tuple[str, ...], values: tuple[Any, ...], n: int = 21) -> tuple[Any, Any]:
+def _pair(which: str, names: tuple[str, ...], values: tuple[Any, ...],
+          n: int = 21) -> tuple[Any, Any]:
     """Broadcast, validate a scalar call, evaluate a pair of coefficients."""
     b = Broadcast(names, values)
     b.raise_if_invalid()

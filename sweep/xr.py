@@ -159,9 +159,9 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any,
     -------
     xarray.Dataset
         One variable per field of :class:`sweep.IntegrationResult` (``e``, ``sticks``,
-        ``t_f``, ``u_max``, ``n_steps``, ``status``, ``e_err``), with their dtypes, ``long_name`` and
-        ``units`` (``flag_values`` / ``flag_meanings`` for ``status``); dask-backed (lazy,
-        one integration per block) if any input is. Global attributes: ``method``
+        ``t_f``, ``u_max``, ``n_steps``, ``status``, ``e_err``), with their dtypes,
+        ``long_name`` and ``units`` (``flag_values`` / ``flag_meanings`` for ``status``);
+        dask-backed (lazy, one integration per block) if any input is. Global attributes: ``method``
         ("numeric"), ``equation`` and the integrator settings used.
     """
     probe = _probe("numeric", options)

@@ -218,7 +218,8 @@ def velocity(u, w, c):
 @jit(inline="always")
 def accel(u, v, c):
     """``dv/dtau = g~ - u^alpha - gamma beta u^(beta-1) v`` for u >= 0 (eq. (1) scaled)."""
-    return c.gtilde - ppow_called(u, c.alpha, c.ka) - c.gamma * c.beta * ppow_called(u, c.beta - 1.0, c.kd) * v
+    return (c.gtilde - ppow_called(u, c.alpha, c.ka)
+            - c.gamma * c.beta * ppow_called(u, c.beta - 1.0, c.kd) * v)
 
 
 @jit(inline="always")
@@ -263,7 +264,8 @@ def well_depth(alpha, gtilde):
 
 @jit(inline="always")
 def natural_frequency(alpha, gtilde):
-    """Linearised angular frequency about u-bar, ``omega_n = sqrt(alpha) g~^((alpha-1)/(2 alpha))``."""
+    """Linearised angular frequency about u-bar,
+    ``omega_n = sqrt(alpha) g~^((alpha-1)/(2 alpha))``."""
     return math.sqrt(alpha) * gtilde ** ((alpha - 1.0) / (2.0 * alpha))
 
 
@@ -273,7 +275,8 @@ def damping_ratio(alpha, beta, gamma, gtilde):
 
         xi = gamma beta / (2 sqrt(alpha)) g~^((2 beta - alpha - 1) / (2 alpha))
     """
-    return gamma * beta / (2.0 * math.sqrt(alpha)) * gtilde ** ((2.0 * beta - alpha - 1.0) / (2.0 * alpha))
+    return (gamma * beta / (2.0 * math.sqrt(alpha))
+            * gtilde ** ((2.0 * beta - alpha - 1.0) / (2.0 * alpha)))
 
 
 @jit(inline="always")

@@ -10,16 +10,15 @@ energy ``H = v^2/2 + F(u) = 1/2 - q``.
   ``u_c = (gamma^2 beta / 4)^(1/kappa)``, and inside R u never reaches 0. With the energy
   keeping u on that side for ever (F is monotone on each side of u-bar, and H only falls),
   the bead never leaves: :func:`never_leaves` (exact, up to a rounding margin on H).
-* Slow branch (kappa < 0). On the way back a heavily damped bead follows the overdamped
-  branch ``v = V(u)`` of ``v dv/du = g~ - u^alpha - gamma beta u^(beta-1) v``, which
-  attracts neighbouring trajectories at the rate ``gamma beta u^(beta-1)``; where
-  ``eps <= EPS_JUMP / 2`` (``/ 10`` under a load) and the state is near it (``|phi - 1 - p eps| <= 0.1``,
-  ``phi = -gamma beta v / u^p``), :func:`jump` moves the bead along it to ``u_t`` with
-  ``eps(u_t) = EPS_JUMP`` (raised to 1.1 u-bar under a load), at the leading-order branch
-  ``V = (g~ - u^alpha) / (gamma beta u^(beta-1))``. The placement error is damped by
-  ``exp(-1/(|kappa| eps_t)) <= e^-30`` before the exit. The time skipped is the integral of
-  ``du / |V|`` by Gauss-Legendre quadrature in ``log u``. Below u_t the motion is the
-  universal inner problem of scale ``(gamma beta)^(-2/|kappa|)``, whose time scale
+* Slow branch (kappa < 0). On the way back a heavily damped bead follows the overdamped branch
+  ``v = V(u)`` of ``v dv/du = g~ - u^alpha - gamma beta u^(beta-1) v``, which attracts neighbouring
+  trajectories at the rate ``gamma beta u^(beta-1)``; where ``eps <= EPS_JUMP / 2`` (``/ 10`` under
+  a load) and the state is near it (``|phi - 1 - p eps| <= 0.1``, ``phi = -gamma beta v / u^p``),
+  :func:`jump` moves the bead along it to ``u_t`` with ``eps(u_t) = EPS_JUMP`` (raised to 1.1 u-bar
+  under a load), at the leading-order branch ``V = (g~ - u^alpha) / (gamma beta u^(beta-1))``. The
+  placement error is damped by ``exp(-1/(|kappa| eps_t)) <= e^-30`` before the exit. The time
+  skipped is the integral of ``du / |V|`` by Gauss-Legendre quadrature in ``log u``. Below u_t the
+  motion is the universal inner problem of scale ``(gamma beta)^(-2/|kappa|)``, whose time scale
   ``u^((1-alpha)/2)`` the march's step is re-based on.
 
 Owns: those rules. May import: contact.

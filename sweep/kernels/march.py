@@ -118,7 +118,8 @@ def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, c):
     # The last Newton correction is O(u_e), within roundoff; apply it to first order.
     delta = -ue / ve if ve < 0.0 else 0.0
     v_f = ve + delta * (c.gtilde - ppow_called(ue, c.alpha, c.ka))
-    q_f = dissipated(ue, ve, r_e, c) + delta * c.gamma * c.beta * ppow_called(ue, c.beta - 1.0, c.kd) * ve * ve
+    q_f = (dissipated(ue, ve, r_e, c)
+           + delta * c.gamma * c.beta * ppow_called(ue, c.beta - 1.0, c.kd) * ve * ve)
     return d, q_f, v_f, used
 
 
@@ -228,7 +229,8 @@ class Ending(NamedTuple):
     budget), CREEP (certified never to leave, :func:`sweep.kernels.creep.never_leaves`),
     NEGLIGIBLE (the energy left bounds e below the tolerance). ``t``, ``u``, ``v``: time,
     position and velocity there; ``h``: the energy left, ``H = 1/2 - q`` with q the energy
-    the damper dissipated (after a creep jump: H at the jump minus q since); ``u_max``: maximum compression (NaN if not reached); ``n``: steps taken;
+    the damper dissipated (after a creep jump: H at the jump minus q since); ``u_max``:
+    maximum compression (NaN if not reached); ``n``: steps taken;
     ``lw``, ``lq``: sums of the embedded local error estimates of w and of the dissipation
     integral over the steps (:func:`sweep.kernels.stepper.local_error`), indicators of the
     global error (:mod:`sweep.kernels.outcome`).

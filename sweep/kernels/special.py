@@ -34,8 +34,9 @@ recurrence (106) applied under the integral). So the sum (49) is exactly (104)::
 The recurrence builds ``T_j(x - 1)`` from the monomials ``x^k``, whose coefficients sum to
 ``|T_j(-2)| ~ 3.7^j / 2`` in magnitude while ``|T_j(x - 1)| <= 1`` on [0, 1]: it takes
 differences of Beta values that agree to many digits, and loses up to log10(3.7) ~ 0.57
-digits per order (7 at n = 21 in practice; at n = 41 nothing is left). The integral (104) has no cancellation (the weight is
-positive and ``p_n`` is of the size of h), so :func:`jm_chebyshev` evaluates it instead:
+digits per order (7 at n = 21 in practice; at n = 41 nothing is left). The integral (104)
+has no cancellation (the weight is positive and ``p_n`` is of the size of h), so
+:func:`jm_chebyshev` evaluates it instead:
 ``p_n`` by Clenshaw's recurrence, the integral by a tanh-sinh rule (``_DE``) that absorbs the
 end-point singularities ``x^s`` and ``(1 - x)^(-1/2)``, with a step shrinking like 1/n so
 that the degree n-1 of ``p_n`` is resolved. The result is the report's formula (same n,
