@@ -23,10 +23,7 @@ latency to hide them, those updates took 70% of the time (``perf``: the ``lock``
 ``NRT_incref`` and ``NRT_decref``); in the one-point march they hide in its latency.
 
 Cost (one core, KK, ``python benchmarks/step_cost.py``): 48-53 ns a step against 78 for
-one point's march; the stages alone take 25-31 ns of it (``benchmarks/lanes.py``). A lane's
-next step is sized where its step ends, from the state at hand, not read back from the
-lanes' arrays at the next step's start: 53 ns a step instead of 57-59, interleaved in a
-slower hour.
+one point's march; the stages alone take 25-31 ns of it (``benchmarks/lanes.py``).
 Its first compile takes about 10 s (the callees it shares with the one-point march
 included) against 7 s for the one-point march, which array calls no longer compile.
 
@@ -178,38 +175,24 @@ def ending_at(E, j):
                   E[j, 7], E[j, 8])
 
 
-@jit(inline="always")
-def _sized(ln, lane, st, c, budget, ends):
-    """march()'s budget test, then the size of the lane's next step from its state ``st``
-    (into ``ln.h``). False where the budget is spent: the lane's Ending is stored and the
-    lane idles."""
-    if st.n < budget[ln.point[lane]]:
-        ln.h[lane] = first_guess(st.u, st.v, st.p, c)
-        return True
-    _put_end(ends, ln.point[lane], out_of_budget(st, c))
-    ln.live[lane] = False
-    return False
-
-
 # Called, not inlined (two call sites, once per point; inlined, each copied the start of
 # a march into the driver: seconds of compile).
 @jit()
-def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, ends):
+def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps):
     """Idle lanes take the next entries of ``todo`` (their marches started as march()
-    starts them, with the size of their first step), while there are any; returns the next
-    entry."""
+    starts them), while there are any; returns the next entry."""
     for lane in range(LANES):
-        while not ln.live[lane] and nxt < todo.size:
-            i = todo[nxt]
-            c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
-            st = start(c, policy(c, steps[nxt]), ln.K[lane])
-            put_law(ln.LF, ln.LI, lane, c)
-            _put_creep(ln, lane, creep_constants(c))
-            _put_state(ln, lane, st)
-            ln.point[lane] = nxt
-            ln.live[lane] = True
-            nxt += 1
-            _sized(ln, lane, st, c, budget, ends)
+        if ln.live[lane] or nxt >= todo.size:
+            continue
+        i = todo[nxt]
+        c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
+        st = start(c, policy(c, steps[nxt]), ln.K[lane])
+        put_law(ln.LF, ln.LI, lane, c)
+        _put_creep(ln, lane, creep_constants(c))
+        _put_state(ln, lane, st)
+        ln.point[lane] = nxt
+        ln.live[lane] = True
+        nxt += 1
     return nxt
 
 
@@ -247,27 +230,32 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     b = _borrowed
     ln, K2, Q = _borrow(own), b(K2_own), b(Q_own)
     budget, ends = b(budget), b(ends)     # the others are read once per point
-    nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps, budget, ends)
+    nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps)
     while _any(ln.live):
-        rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y)
         idle = False
-        for lane in range(LANES):      # the rest of march()'s step, and the next one's size
+        for lane in range(LANES):      # the step's size, after march()'s budget test
             if ln.live[lane]:
-                c = law_at(ln.LF, ln.LI, lane)
-                # ln.K[lane] is a view of a borrowed array: it costs no count.
-                st, end = after_stages(_state(ln, lane), c, _creep_at(ln, lane), ln.h[lane],
-                                       ln.y[lane, 0], ln.y[lane, 1], ln.y[lane, 2], ln.K[lane],
-                                       K2, Q, rest_tol, e_tol, budget[ln.point[lane]])
-                if end.kind == GOING:
-                    _put_state(ln, lane, st)
-                    # Sized here, from the state at hand, rather than read back at the
-                    # next step's start: one read of the lane's state a step.
-                    if not _sized(ln, lane, st, c, budget, ends):
-                        idle = True
+                st, c = _state(ln, lane), law_at(ln.LF, ln.LI, lane)
+                if st.n < budget[ln.point[lane]]:
+                    ln.h[lane] = first_guess(st.u, st.v, st.p, c)
                 else:
-                    _put_end(ends, ln.point[lane], end)
+                    _put_end(ends, ln.point[lane], out_of_budget(st, c))
                     ln.live[lane], idle = False, True
+        if not idle:
+            rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y)
+            for lane in range(LANES):  # the rest of march()'s step
+                if ln.live[lane]:
+                    # ln.K[lane] is a view of a borrowed array: it costs no count.
+                    st, end = after_stages(_state(ln, lane), law_at(ln.LF, ln.LI, lane),
+                                           _creep_at(ln, lane), ln.h[lane], ln.y[lane, 0],
+                                           ln.y[lane, 1], ln.y[lane, 2], ln.K[lane], K2, Q,
+                                           rest_tol, e_tol, budget[ln.point[lane]])
+                    if end.kind == GOING:
+                        _put_state(ln, lane, st)
+                    else:
+                        _put_end(ends, ln.point[lane], end)
+                        ln.live[lane], idle = False, True
         if idle:
-            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, ends)
+            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps)
     # The owners live until the borrowed views are done with.
     own.live[0] = K2_own[0, 0] == Q_own[0, 0]
