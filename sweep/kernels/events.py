@@ -9,6 +9,7 @@ Owns: event functions and their location on the interpolant. May import: contact
 """
 from __future__ import annotations
 
+import numpy as np
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import velocity
@@ -18,7 +19,7 @@ __all__ = ["ON_U", "ON_V", "event_value", "locate"]
 
 ON_U = 0
 ON_V = 1
-_EPS = 2.220446049250313e-16
+_EPS = float(np.finfo(np.float64).eps)
 
 
 @jit(inline="always")

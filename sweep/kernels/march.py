@@ -60,7 +60,7 @@ _ENERGY_ROUNDOFF = 1e-12
 # u at d carries rounding, so smaller corrections are noise, and a bound below one ulp of
 # d (2e-16 d, as before) let the iteration swing between two neighbouring floats up to
 # its cap (2.4% of the KK core draw took all 12 re-steps).
-_NEWTON_STOP = 4.0 * 2.220446049250313e-16
+_NEWTON_STOP = 4.0 * float(np.finfo(np.float64).eps)
 
 
 @jit(inline="always")
