@@ -38,7 +38,8 @@ def _one_step(u0, w0, s, c):
 
 @numba.njit
 def _detachment(u0, w0, s, c):
-    """``(d, v_f, re-steps used, u after a re-step of d)`` for the step s from (u0, w0)."""
+    """``(d, v_f, re-steps used, u after a re-step of d, u at the step's end)`` for the
+    step s from (u0, w0)."""
     u1, K, K2, Q = _one_step(u0, w0, s, c)
     d, _, v_f, used = _detach(u0, w0, 0.0, s, 0.0, 1.0, Q, K, K2, c)
     K2[0, 0], K2[0, 1], K2[0, 2] = K[0, 0], K[0, 1], K[0, 2]
