@@ -30,8 +30,9 @@ gamma < 0, g~ < 0, a non-finite value, or outside the method's domain (``"sp"`` 
 KK; ``"ord2_*"`` at g~ so large that ``theta`` of (43) underflows or I overflows: beyond
 ~1e60 for alpha = 1, beta = 4, ~1e100 for KK) get ``e = NaN`` and ``Status.INVALID``.
 
-The kernels are compiled lazily (first call) without fastmath, so NaN checks work and
-results are bit-identical whatever the number of threads or the chunking.
+The kernels are compiled lazily (first call) with no fastmath flag but contraction into
+fused multiply-adds (:data:`sweep.kernels._jit.FLAGS`), so NaN checks work and results are
+bit-identical whatever the number of threads or the chunking.
 
 Owns: the closed-form kernels over flat arrays. May import: registry, the other kernels.
 """

@@ -14,7 +14,8 @@ other's compute.
 
 **Agreement with the CPU.** The arithmetic is the same; the results are not bit-identical,
 for two reasons that no option of numba-cuda removes: NVVM contracts ``a * b + c`` into
-fused multiply-adds (LLVM on the CPU does not, without fastmath), and CUDA's libdevice
+fused multiply-adds where LLVM on the CPU may pick other pairs or none (the CPU kernels
+allow contraction too, :data:`sweep.kernels._jit.FLAGS`), and CUDA's libdevice
 ``pow``/``exp``/``log`` may differ from the C library's in the last bit (``sqrt`` and
 division are correctly rounded on both). Both change e by a few ulp on ordinary points;
 where the integrator amplifies rounding (near the stick/rebound boundary, by about 1/e)
