@@ -10,6 +10,7 @@ alternate, then the array kernels' own stages of ``LANES`` points at once
 (``sweep.kernels.stepper.rk_step_lanes``), and prints nanoseconds per step and point, one
 core. It measures the stages alone: a march adds per step its events, error sums and
 stopping rules, for each point (``benchmarks/step_cost.py`` times the whole march).
+Compiled with the kernels' flags (``sweep.kernels._jit.FLAGS``), as the kernels inline them.
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ import time
 import numba as nb
 import numpy as np
 
+from sweep.kernels._jit import FLAGS
 from sweep.kernels.contact import make_law, put_law, rhs
 from sweep.kernels.lanes import LANES
 from sweep.kernels.stepper import N_STAGES, rk_combine, rk_stage, rk_step_lanes
@@ -26,7 +28,7 @@ from sweep.kernels.stepper import N_STAGES, rk_combine, rk_stage, rk_step_lanes
 _H = 1e-9      # a tiny step keeps the state, and so the work per stage, the same throughout
 
 
-@nb.njit(nogil=True)
+@nb.njit(**FLAGS)
 def _first_stage(K, u, w, c):
     fu, fw, fr = rhs(u, w, c)
     K[0, 0] = fu
@@ -34,7 +36,7 @@ def _first_stage(K, u, w, c):
     K[0, 2] = fr
 
 
-@nb.njit(nogil=True)
+@nb.njit(**FLAGS)
 def one_lane(n, gamma, gtilde):
     c = make_law(1.5, 1.5, gamma, gtilde)
     K = np.empty((N_STAGES, 3))
@@ -49,7 +51,7 @@ def one_lane(n, gamma, gtilde):
     return u + acc
 
 
-@nb.njit(nogil=True)
+@nb.njit(**FLAGS)
 def two_lanes(n, gamma, gtilde):
     ca = make_law(1.5, 1.5, gamma, gtilde)
     cb = make_law(1.5, 1.5, 1.1 * gamma, gtilde)
@@ -70,7 +72,7 @@ def two_lanes(n, gamma, gtilde):
     return ua + ub + acc
 
 
-@nb.njit(nogil=True)
+@nb.njit(**FLAGS)
 def all_lanes(n, gamma, gtilde):
     K = np.empty((LANES, N_STAGES, 3))
     LF, LI = np.empty((LANES, 4)), np.empty((LANES, 4), np.int64)
