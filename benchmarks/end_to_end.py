@@ -91,6 +91,16 @@ def warm_up(cfg):
     runner.compute_chunk(runner.ComputePlan.from_config(cfg), *points)
 
 
+def _integrator_line(cfg) -> str:
+    """The integrator options the configuration gives (tol, steps, ...), or the default."""
+    if not cfg.outputs.needs_integration:
+        return "not run"
+    given = cfg.integrator.kwargs()
+    if not given:
+        return f"steps={api.DEFAULT_STEPS} (default)"
+    return ", ".join(f"{name}={value}" for name, value in sorted(given.items()))
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--config", default=str(ROOT / "configs" / "sobol_1m.toml"))
@@ -136,7 +146,7 @@ def main(argv=None):
     outside = res.wall_seconds - res.kernel_seconds
     print(f"design            : {design.build(cfg.design).describe()}")
     print(f"stored variables  : {', '.join(cfg.outputs.variables)}")
-    print(f"integrator        : {'steps=%s (default %s)' % (cfg.integrator.steps, api.DEFAULT_STEPS) if cfg.outputs.needs_integration else 'not run'}")
+    print(f"integrator        : {_integrator_line(cfg)}")
     print(f"points            : {res.n_points} in {res.chunks} chunks")
     print(f"wall time         : {res.wall_seconds:.2f} s")
     print(f"points/s          : {res.points_per_second:,.0f}")
