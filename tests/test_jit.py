@@ -149,6 +149,18 @@ def test_other_code_compiles_with_the_thresholds_it_has(thresholds):
     assert rec.seen == [("theirs", (500, 7, 9))] and gc.get_threshold() == (500, 7, 9)
 
 
+def test_code_of_no_module_compiles_with_the_thresholds_it_has(thresholds):
+    # exec() without __name__ leaves a function's __module__ None: the listener sees
+    # every compile in the process once sweep is imported, and must not fail on it.
+    rec, _ = thresholds
+    gc.set_threshold(500, 7, 9)
+    namespace = {}
+    exec("def nameless(x):\n    return x * 3.0\n", namespace)
+    assert namespace["nameless"].__module__ is None
+    assert numba.njit(namespace["nameless"])(2.0) == 6.0
+    assert rec.seen == [("nameless", (500, 7, 9))] and gc.get_threshold() == (500, 7, 9)
+
+
 def test_a_failed_compile_restores_the_thresholds(thresholds):
     rec, before = thresholds
 

@@ -257,7 +257,8 @@ class _RelaxedCollector(_event.Listener):
 
 
 def _ours(data) -> bool:
-    module = getattr(getattr(data.get("dispatcher"), "py_func", None), "__module__", "")
+    # A function made by exec() without a __name__ has __module__ None.
+    module = getattr(getattr(data.get("dispatcher"), "py_func", None), "__module__", None) or ""
     return module == _PACKAGE or module.startswith(f"{_PACKAGE}.")
 
 
