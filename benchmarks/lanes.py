@@ -21,7 +21,7 @@ import numba as nb
 import numpy as np
 
 from sweep.kernels._jit import FLAGS
-from sweep.kernels.contact import make_law, put_law, rhs
+from sweep.kernels.contact import LAW_COLUMNS, make_law, put_law, rhs
 from sweep.kernels.lanes import LANES
 from sweep.kernels.stepper import N_STAGES, rk_combine, rk_stage, rk_step_lanes
 
@@ -75,7 +75,7 @@ def two_lanes(n, gamma, gtilde):
 @nb.njit(**FLAGS)
 def all_lanes(n, gamma, gtilde):
     K = np.empty((LANES, N_STAGES, 3))
-    LF, LI = np.empty((LANES, 4)), np.empty((LANES, 4), np.int64)
+    LF, LI = np.empty((LANES, LAW_COLUMNS[0])), np.empty((LANES, LAW_COLUMNS[1]), np.int64)
     u, w, h = np.full(LANES, 0.3), np.full(LANES, 0.2), np.full(LANES, _H)
     live, y = np.ones(LANES, np.bool_), np.empty((LANES, 3))
     for l in range(LANES):

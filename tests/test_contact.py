@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 
 from sweep.kernels import contact
+from sweep.kernels._jit import FLAGS as contact_flags
 from sweep.kernels.creep import slow_velocity
+from sweep.registry import MODELS
 
 
 # Kernel-only helpers (no Python wrapper) are called from compiled code, as kernels do.
@@ -59,3 +61,50 @@ def test_slow_branch_velocity(alpha, beta):
     # g~ - u^alpha cancels near u-bar: compare on its own scale.
     scale = (0.3 + U ** alpha) / (40.0 * beta * U ** (beta - 1.0))
     assert np.all(np.abs(got - ref) <= 8 * EPS * scale)
+
+
+# --------------------------------------------------------------------------- rows of laws
+
+@numba.njit(**contact_flags)
+def _row_rhs(u, w, alpha, beta, gamma, gtilde):
+    """rhs_at on the row put_law stores, beside rhs on the law itself."""
+    F = np.empty((1, contact.LAW_COLUMNS[0]))
+    I = np.empty((1, contact.LAW_COLUMNS[1]), np.int64)
+    c = contact.make_law(alpha, beta, gamma, gtilde)
+    contact.put_law(F, I, 0, c)
+    a = contact.rhs_at(u, w, F, I, 0)
+    b = contact.rhs(u, w, c)
+    return a[0], a[1], a[2], b[0], b[1], b[2]
+
+
+# Every model of the report, a pair without codes, one with beta's code only, a smooth one.
+ROW_LAWS = list(MODELS.values()) + [(2.81, 1.37), (1.37, 1.5), (2.0, 3.0)]
+ROW_U = np.concatenate([-np.logspace(-12, 0, 7), [0.0, -0.0], np.logspace(-14, 2, 33)])
+
+
+@pytest.mark.parametrize("alpha, beta", ROW_LAWS)
+def test_a_law_read_from_its_row_gives_the_laws_own_rates_bit_for_bit(alpha, beta):
+    # The models' rows take copies of rhs compiled with their exponents as constants
+    # (rhs_at): the arithmetic must be rhs's, operation for operation.
+    rng = np.random.default_rng(11)
+    for u in ROW_U:
+        w, gamma, gtilde = rng.uniform(-2, 2), 10 ** rng.uniform(-4, 2), rng.uniform(0, 5)
+        got = np.array(_row_rhs(u, w, alpha, beta, gamma, gtilde))
+        assert np.array_equal(got[:3], got[3:]), (u, w, gamma, gtilde, got)
+        # ... and rhs is the report's (4) with u_+ powers (numpy's, to rounding).
+        up = max(u, 0.0)
+        if contact._integer.py_func(alpha) and contact._integer.py_func(beta):
+            up = u
+        pb, pa = up ** beta if up != 0.0 else 0.0, up ** alpha if up != 0.0 else 0.0
+        v = w - gamma * pb
+        np.testing.assert_allclose(got[:2], [v, gtilde - pa], rtol=1e-13, atol=1e-300)
+
+
+@pytest.mark.parametrize("kind", sorted(contact._POSITIVE_POWER))
+def test_the_models_power_formulas_are_the_coded_powers(kind):
+    # rhs_at's copies take _POSITIVE_POWER's formulas; the coded power writes them out.
+    p = {contact.power_kind.py_func(q): q for q in (1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 0.5, 0.25)}[kind]
+    form = contact._POSITIVE_POWER[kind]
+    for x in np.logspace(-100, 100, 121):
+        assert form(x) == contact.ppow(x, p, kind), (kind, x)
+        np.testing.assert_allclose(form(x), x ** p, rtol=4 * EPS)

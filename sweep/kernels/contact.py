@@ -19,10 +19,13 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from sweep.kernels._jit import jit
-from sweep.registry import PARAMETERS
+import numpy as np
 
-__all__ = ["Law", "make_law", "put_law", "law_at", "power_kind", "ppow", "ppow_called", "rhs",
+from sweep.kernels._jit import jit
+from sweep.registry import MODELS, PARAMETERS
+
+__all__ = ["Law", "make_law", "put_law", "law_at", "LAW_COLUMNS", "rhs_at", "power_kind", "ppow",
+           "ppow_called", "rhs",
            "rhs_called", "velocity", "accel", "dissipated", "potential", "damping_rate",
            "equilibrium", "well_depth", "damping_ratio", "natural_frequency", "umax_undamped",
            "elastic_frequency", "in_domain", "KIND_ONE"]
@@ -91,11 +94,16 @@ def make_law(alpha, beta, gamma, gtilde):
                power_kind(beta - 1.0), _integer(alpha) and _integer(beta))
 
 
+#: Columns of the float (``F``) and int (``I``) rows that hold a :class:`Law` (:func:`put_law`).
+LAW_COLUMNS = (4, 5)
+
+
 @jit(inline="always")
 def put_law(F, I, row, c):
     """Store the :class:`Law` ``c`` in ``row`` of ``F`` (float64, 4 columns: the exponents,
-    damping and load) and ``I`` (int64, 4 columns: the power codes and ``smooth``), for
-    drivers that hold several points' laws in arrays (:func:`law_at` reads it back)."""
+    damping and load) and ``I`` (int64, 5 columns: the power codes, ``smooth`` and which of
+    the report's models with non-integer exponents it is, or -1), for drivers that hold
+    several points' laws in arrays (:func:`law_at` and :func:`rhs_at` read it back)."""
     F[row, 0] = c.alpha
     F[row, 1] = c.beta
     F[row, 2] = c.gamma
@@ -104,6 +112,7 @@ def put_law(F, I, row, c):
     I[row, 1] = c.kb
     I[row, 2] = c.kd
     I[row, 3] = 1 if c.smooth else 0
+    I[row, 4] = _model_of(c.alpha, c.beta)
 
 
 @jit(inline="always")
@@ -118,10 +127,43 @@ def _integer(p):
     return p == 1.0 or p == 2.0 or p == 3.0
 
 
+# The report's models whose exponents are not both integers (sweep.registry.MODELS, in its
+# order): their powers go through power codes, whose branches rhs_at folds away in a copy
+# of rhs for each (integer exponents take rhs's polynomials, with no codes to test).
+_CODED_MODELS = np.array([(a, b) for a, b in MODELS.values()
+                          if not (_integer.py_func(a) and _integer.py_func(b))], dtype=np.float64)
+
+
+@jit(inline="always")
+def _model_of(alpha, beta):
+    """Row of ``(alpha, beta)`` in ``_CODED_MODELS``, or -1."""
+    for k in range(_CODED_MODELS.shape[0]):
+        if alpha == _CODED_MODELS[k, 0] and beta == _CODED_MODELS[k, 1]:
+            return k
+    return -1
+
+
+# x^p for x > 0 by power code, for the models' own copies of rhs (rhs_at), which take the
+# one their code selects: _power's branches as functions.
+_x_one = jit(inline="always")(lambda x: x)
+_x_three_halves = jit(inline="always")(lambda x: x * math.sqrt(x))
+_x_two = jit(inline="always")(lambda x: x * x)
+_x_five_halves = jit(inline="always")(lambda x: x * x * math.sqrt(x))
+_x_five_fourths = jit(inline="always")(lambda x: x * math.sqrt(math.sqrt(x)))
+_x_three = jit(inline="always")(lambda x: x * x * x)
+_x_half = jit(inline="always")(lambda x: math.sqrt(x))
+_x_quarter = jit(inline="always")(lambda x: math.sqrt(math.sqrt(x)))
+_POSITIVE_POWER = {KIND_ONE: _x_one, _KIND_THREE_HALVES: _x_three_halves, _KIND_TWO: _x_two,
+                   _KIND_FIVE_HALVES: _x_five_halves, _KIND_FIVE_FOURTHS: _x_five_fourths,
+                   _KIND_THREE: _x_three, _KIND_HALF: _x_half, _KIND_QUARTER: _x_quarter}
+
+
 def _power(x, p, kind):
     """``x**p`` for ``x > 0``, and 0 for ``x <= 0`` (the report's ``x_+^p``; also for p = 0,
     where it is the indicator of contact, closed at x = 0: the bead is in contact from its
     first instant, so the damper acts at tau = 0)."""
+    # The formulas of _POSITIVE_POWER, written out: calls to them here cost compile time
+    # at every copy of this function (tests/test_contact.py holds them equal).
     if kind == _KIND_ZERO:
         return 1.0 if x >= 0.0 else 0.0
     if x <= 0.0:
@@ -166,6 +208,40 @@ def _polynomial(x, kind):
     return x * x * x
 
 
+@jit(inline="always")
+def _polynomial_powers(u, alpha, beta, ka, kd):
+    """``(u^(beta-1), u^beta, u^alpha)`` for integer exponents, continued to u < 0."""
+    pd = _polynomial(u, kd)
+    pb = u * pd
+    return pd, pb, (pb if alpha == beta else _polynomial(u, ka))
+
+
+@jit(inline="always")
+def _general_powers(u, alpha, beta):
+    """The same for general exponents and u > 0: one log for both powers (a pow is a log
+    and an exp)."""
+    lu = math.log(u)
+    pd = math.exp((beta - 1.0) * lu)
+    return pd, u * pd, math.exp(alpha * lu)
+
+
+@jit(inline="always")
+def _coded_powers(u, alpha, beta, ka, kd):
+    """The same, ``u_+`` powers, for exponents with power codes (:func:`_power`)."""
+    pd = ppow(u, beta - 1.0, kd)
+    pb = u * pd if u > 0.0 else 0.0
+    # Equal exponents (linear, Kuwabara-Kono) share the one power: it is most of a
+    # stage's cost.
+    return pd, pb, (pb if alpha == beta else ppow(u, alpha, ka))
+
+
+@jit(inline="always")
+def _forces(w, beta, gamma, gtilde, pd, pb, pa):
+    """``(u', w', r')`` from the powers ``(u^(beta-1), u^beta, u^alpha)`` (:func:`_rhs`)."""
+    v = w - gamma * pb
+    return v, gtilde - pa, -gamma * pb * (gtilde - pa - gamma * beta * pd * v)
+
+
 def _rhs(u, w, c):
     """Right-hand side of (4) and of the dissipation integral: returns ``(u', w', r')``.
 
@@ -184,29 +260,72 @@ def _rhs(u, w, c):
     where in the step the floor is reached).
     """
     if c.smooth:
-        pd = _polynomial(u, c.kd)
-        pb = u * pd
-        pa = pb if c.alpha == c.beta else _polynomial(u, c.ka)
+        pd, pb, pa = _polynomial_powers(u, c.alpha, c.beta, c.ka, c.kd)
     elif c.kd == _KIND_GENERAL and c.ka == _KIND_GENERAL and u > 0.0:
-        # General exponents: one log for both powers (a pow is a log and an exp).
-        lu = math.log(u)
-        pd = math.exp((c.beta - 1.0) * lu)
-        pb = u * pd
-        pa = math.exp(c.alpha * lu)
+        pd, pb, pa = _general_powers(u, c.alpha, c.beta)
     else:
-        pd = ppow(u, c.beta - 1.0, c.kd)
-        pb = u * pd if u > 0.0 else 0.0
-        # Equal exponents (linear, Kuwabara-Kono) share the one power: it is most of a
-        # stage's cost.
-        pa = pb if c.alpha == c.beta else ppow(u, c.alpha, c.ka)
-    v = w - c.gamma * pb
-    return v, c.gtilde - pa, -c.gamma * pb * (c.gtilde - pa - c.gamma * c.beta * pd * v)
+        pd, pb, pa = _coded_powers(u, c.alpha, c.beta, c.ka, c.kd)
+    return _forces(w, c.beta, c.gamma, c.gtilde, pd, pb, pa)
 
 
 #: :func:`_rhs` inlined: for the stages of a step, most of the march's cost.
 rhs = jit(inline="always")(_rhs)
 #: The same compiled once and called: where a march starts or jumps (once per point).
 rhs_called = jit()(_rhs)
+
+
+def _model_rhs(alpha, beta):
+    """:func:`rhs` for the exponents ``(alpha, beta)`` (not both integers) fixed: the
+    formulas of their powers (``_POSITIVE_POWER``) chosen here, so that the copy has no
+    branch on the codes. (The power of beta - 1 = 0, Hertz's, is the contact indicator.)"""
+    kd, ka = power_kind.py_func(beta - 1.0), power_kind.py_func(alpha)
+    indicator = kd == _KIND_ZERO
+    form_d = _POSITIVE_POWER[KIND_ONE if indicator else kd]
+    form_a = _POSITIVE_POWER[ka]
+    equal = alpha == beta
+
+    def model_rhs(u, w, gamma, gtilde):
+        # _coded_powers, with _power's branches for these codes.
+        if indicator:
+            pd = 1.0 if u >= 0.0 else 0.0
+        else:
+            pd = form_d(u) if u > 0.0 else 0.0
+        pb = u * pd if u > 0.0 else 0.0
+        pa = pb if equal else (form_a(u) if u > 0.0 else 0.0)
+        return _forces(w, beta, gamma, gtilde, pd, pb, pa)
+    return jit(inline="always")(model_rhs)
+
+
+if len(_CODED_MODELS) != 4:
+    raise ImportError("rhs_at has one branch per model of sweep.registry.MODELS with "
+                      "non-integer exponents: update it")
+_rhs_m0, _rhs_m1, _rhs_m2, _rhs_m3 = (_model_rhs(a, b) for a, b in _CODED_MODELS)
+
+
+@jit(inline="always")
+def rhs_at(u, w, F, I, row):
+    """``rhs(u, w, law_at(F, I, row))``, value for value, for the stages of drivers that
+    hold their points' laws in rows (:func:`put_law`).
+
+    A law of the report's models gets a copy of :func:`rhs` of its own in which its
+    exponents and power codes are constants, so that the branches on them fold away;
+    elsewhere the codes are known only at run time, and testing them took about an eighth
+    of a KK point's time (measured interleaved, 2026-12-02). Other exponents take the
+    general copy.
+    """
+    k = I[row, 4]
+    if k >= 0:
+        gamma, gtilde = F[row, 2], F[row, 3]
+        # One branch per model: each copy is compiled with its exponents as constants.
+        if k == 0:
+            return _rhs_m0(u, w, gamma, gtilde)
+        if k == 1:
+            return _rhs_m1(u, w, gamma, gtilde)
+        if k == 2:
+            return _rhs_m2(u, w, gamma, gtilde)
+        if k == 3:
+            return _rhs_m3(u, w, gamma, gtilde)
+    return rhs(u, w, law_at(F, I, row))
 
 
 @jit(inline="always")

@@ -40,7 +40,7 @@ from numba.core import types
 from numba.extending import intrinsic
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import law_at, make_law, put_law
+from sweep.kernels.contact import LAW_COLUMNS, law_at, make_law, put_law
 from sweep.kernels.creep import Creep, creep_constants
 from sweep.kernels.march import (GOING, Ending, State, after_stages, out_of_budget, scratch,
                                  start)
@@ -64,7 +64,7 @@ class Lanes(NamedTuple):
 
     point: np.ndarray   # int64: entry of ``todo`` the lane marches
     live: np.ndarray    # bool: the lane marches a point
-    LF: np.ndarray      # float64 (LANES, 4), LI: int64 (LANES, 4): laws (contact.put_law)
+    LF: np.ndarray      # float64 and int64 (LANES, LAW_COLUMNS): laws (contact.put_law)
     LI: np.ndarray
     CR: np.ndarray      # float64 (LANES, 7): creep constants (Creep's fields)
     SF: np.ndarray      # float64 (LANES, 14): state and policy floats (columns above)
@@ -111,7 +111,8 @@ def _lanes():
     point[:] = -1
     live = np.empty(LANES, np.bool_)
     live[:] = False
-    return Lanes(point, live, np.empty((LANES, 4)), np.empty((LANES, 4), np.int64),
+    return Lanes(point, live, np.empty((LANES, LAW_COLUMNS[0])),
+                 np.empty((LANES, LAW_COLUMNS[1]), np.int64),
                  np.empty((LANES, 7)), np.empty((LANES, 14)), np.empty((LANES, 6), np.int64),
                  np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((LANES, 3)),
                  np.empty((LANES, N_STAGES, 3)))

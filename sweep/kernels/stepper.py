@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import law_at, rhs, rhs_called
+from sweep.kernels.contact import rhs, rhs_at, rhs_called
 from sweep.kernels.tableau import DORMAND_PRINCE_54
 
 __all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "rk_stage", "stage_point", "rk_combine",
@@ -139,7 +139,7 @@ rk_step_inline = jit(inline="always")(_step_with(rhs))
 def rk_step_lanes(u, w, h, K, LF, LI, live, y):
     """:func:`rk_step` for several points at once: lane ``l`` (where ``live[l]``) steps
     ``(u[l], w[l])`` by ``h[l]`` with the law in row ``l`` of ``LF, LI``
-    (:func:`sweep.kernels.contact.law_at`), its stages in ``K[l]`` (``K[l, 0]`` = f at the
+    (:func:`sweep.kernels.contact.rhs_at`), its stages in ``K[l]`` (``K[l, 0]`` = f at the
     start on entry), its ``(u_new, w_new, dr)`` in ``y[l]``.
 
     Each stage is formed for every lane before the next: the lanes' chains of dependent
@@ -151,7 +151,7 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y):
         for lane in range(live.size):
             if live[lane]:
                 ui, wi = _stage_point_lane(i, u[lane], w[lane], h[lane], K, lane)
-                K[lane, i, 0], K[lane, i, 1], K[lane, i, 2] = rhs(ui, wi, law_at(LF, LI, lane))
+                K[lane, i, 0], K[lane, i, 1], K[lane, i, 2] = rhs_at(ui, wi, LF, LI, lane)
     for lane in range(live.size):
         if live[lane]:
             y[lane, 0], y[lane, 1], y[lane, 2] = _combine_lane(u[lane], w[lane], h[lane], K,
