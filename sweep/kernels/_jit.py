@@ -160,11 +160,11 @@ def kernel_cache() -> Iterator[None]:
 #: kernel called from a Python thread (Dask workers, a GUI) lets the others run. Of
 #: fastmath's flags only ``contract``: ``a * b + c`` may become one fused multiply-add (one
 #: rounding instead of two; 4-6% less time a point, KK to general exponents and heavy
-#: damping, measured interleaved on 2026-12-02), which the GPU's compiler does anyway. None of the others:
-#: ``nnan``/``ninf`` would drop the finiteness tests, ``reassoc``/``arcp`` change values
-#: with the compiler's whims. What is contracted is fixed when a kernel compiles, so
-#: results stay bit-identical whatever the thread count, block or order; on a CPU without
-#: FMA they differ from these in the last bits.
+#: damping, measured interleaved on 2026-12-02), which the GPU's compiler does anyway.
+#: None of the others: ``nnan``/``ninf`` would drop the finiteness tests,
+#: ``reassoc``/``arcp`` change values with the compiler's whims. What is contracted is
+#: fixed when a kernel compiles, so results stay bit-identical whatever the thread count,
+#: block or order; on a CPU without FMA they differ from these in the last bits.
 FLAGS = {"error_model": "numpy", "nogil": True, "fastmath": {"contract"}}
 
 

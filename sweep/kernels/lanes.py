@@ -22,10 +22,13 @@ is copied, at every inlined call level, and in the lanes' loop, where nothing wa
 latency to hide them, those updates took 70% of the time (``perf``: the ``lock`` of
 ``NRT_incref`` and ``NRT_decref``); in the one-point march they hide in its latency.
 
-Cost (one core, KK, ``python benchmarks/step_cost.py``): 48-53 ns a step against 78 for
-one point's march; the stages alone take 25-31 ns of it (``benchmarks/lanes.py``).
-Its first compile takes about 10 s (the callees it shares with the one-point march
-included) against 7 s for the one-point march, which array calls no longer compile.
+Cost (one core, KK, ``python benchmarks/step_cost.py``): 43 ns a step on 2026-12-02,
+48-53 ns the day before (against 78 for one point's march then), before the fused
+multiply-adds and the models' own copies of the right-hand side
+(:func:`sweep.kernels.contact.rhs_at`); the stages alone take 25-26 ns of it
+(``benchmarks/lanes.py``). Its first compile takes about 14 s (the callees it shares with
+the one-point march included; 10 s before those copies) against 7 s for the one-point
+march, which array calls no longer compile.
 
 Owns: the multi-point driver and the layout of its lanes. May import: contact, creep,
 stepper, stepsize, march.
