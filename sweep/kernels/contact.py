@@ -25,10 +25,9 @@ from sweep.kernels._jit import jit
 from sweep.registry import MODELS, PARAMETERS
 
 __all__ = ["Law", "make_law", "put_law", "law_at", "LAW_COLUMNS", "rhs_at", "power_kind", "ppow",
-           "ppow_called", "rhs",
-           "rhs_called", "velocity", "accel", "dissipated", "potential", "damping_rate",
-           "equilibrium", "well_depth", "damping_ratio", "natural_frequency", "umax_undamped",
-           "elastic_frequency", "in_domain", "KIND_ONE"]
+           "ppow_called", "rhs", "rhs_called", "velocity", "accel", "dissipated", "potential",
+           "damping_rate", "equilibrium", "well_depth", "damping_ratio", "natural_frequency",
+           "umax_undamped", "elastic_frequency", "in_domain", "KIND_ONE"]
 
 # Exponents of the report's models get a pow-free evaluation: pow() dominates the cost of a
 # stage, and sqrt is exact-rounded and several times cheaper.
@@ -209,35 +208,9 @@ def _polynomial(x, kind):
 
 
 @jit(inline="always")
-def _polynomial_powers(u, alpha, beta, ka, kd):
-    """``(u^(beta-1), u^beta, u^alpha)`` for integer exponents, continued to u < 0."""
-    pd = _polynomial(u, kd)
-    pb = u * pd
-    return pd, pb, (pb if alpha == beta else _polynomial(u, ka))
-
-
-@jit(inline="always")
-def _general_powers(u, alpha, beta):
-    """The same for general exponents and u > 0: one log for both powers (a pow is a log
-    and an exp)."""
-    lu = math.log(u)
-    pd = math.exp((beta - 1.0) * lu)
-    return pd, u * pd, math.exp(alpha * lu)
-
-
-@jit(inline="always")
-def _coded_powers(u, alpha, beta, ka, kd):
-    """The same, ``u_+`` powers, for exponents with power codes (:func:`_power`)."""
-    pd = ppow(u, beta - 1.0, kd)
-    pb = u * pd if u > 0.0 else 0.0
-    # Equal exponents (linear, Kuwabara-Kono) share the one power: it is most of a
-    # stage's cost.
-    return pd, pb, (pb if alpha == beta else ppow(u, alpha, ka))
-
-
-@jit(inline="always")
 def _forces(w, beta, gamma, gtilde, pd, pb, pa):
-    """``(u', w', r')`` from the powers ``(u^(beta-1), u^beta, u^alpha)`` (:func:`_rhs`)."""
+    """``(u', w', r')`` from the powers ``(u^(beta-1), u^beta, u^alpha)`` (:func:`_rhs`,
+    and the models' copies of it, :func:`rhs_at`)."""
     v = w - gamma * pb
     return v, gtilde - pa, -gamma * pb * (gtilde - pa - gamma * beta * pd * v)
 
@@ -260,11 +233,21 @@ def _rhs(u, w, c):
     where in the step the floor is reached).
     """
     if c.smooth:
-        pd, pb, pa = _polynomial_powers(u, c.alpha, c.beta, c.ka, c.kd)
+        pd = _polynomial(u, c.kd)
+        pb = u * pd
+        pa = pb if c.alpha == c.beta else _polynomial(u, c.ka)
     elif c.kd == _KIND_GENERAL and c.ka == _KIND_GENERAL and u > 0.0:
-        pd, pb, pa = _general_powers(u, c.alpha, c.beta)
+        # General exponents: one log for both powers (a pow is a log and an exp).
+        lu = math.log(u)
+        pd = math.exp((c.beta - 1.0) * lu)
+        pb = u * pd
+        pa = math.exp(c.alpha * lu)
     else:
-        pd, pb, pa = _coded_powers(u, c.alpha, c.beta, c.ka, c.kd)
+        pd = ppow(u, c.beta - 1.0, c.kd)
+        pb = u * pd if u > 0.0 else 0.0
+        # Equal exponents (linear, Kuwabara-Kono) share the one power: it is most of a
+        # stage's cost.
+        pa = pb if c.alpha == c.beta else ppow(u, c.alpha, c.ka)
     return _forces(w, c.beta, c.gamma, c.gtilde, pd, pb, pa)
 
 
@@ -285,7 +268,7 @@ def _model_rhs(alpha, beta):
     equal = alpha == beta
 
     def model_rhs(u, w, gamma, gtilde):
-        # _coded_powers, with _power's branches for these codes.
+        # rhs's coded branch, with _power's branches for these codes.
         if indicator:
             pd = 1.0 if u >= 0.0 else 0.0
         else:
