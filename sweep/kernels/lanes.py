@@ -26,7 +26,7 @@ Cost (one core, KK, ``python benchmarks/step_cost.py``): 43 ns a step on 2026-12
 48-53 ns the day before (against 78 for one point's march then), before the fused
 multiply-adds and the models' own copies of the right-hand side
 (:func:`sweep.kernels.contact.rhs_at`); the stages alone take 25-26 ns of it
-(``benchmarks/lanes.py``). Its first compile takes about 14 s (the callees it shares with
+(``benchmarks/lanes.py``). Its first compile takes about 13 s (the callees it shares with
 the one-point march included; 10 s before those copies) against 7 s for the one-point
 march, which array calls no longer compile.
 
