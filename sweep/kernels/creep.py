@@ -37,7 +37,7 @@ __all__ = ["Creep", "creep_constants", "never_leaves", "never_leaves_from_start"
            "near_slow_branch", "jump", "energy_margin", "ROUNDING_V"]
 
 #: Relative rounding margin of the energy H (16 eps times its largest term).
-_H_ROUNDING = 16.0 * 2.220446049250313e-16
+_H_ROUNDING = 16.0 * float(np.finfo(np.float64).eps)
 #: |v| below this fraction of |w| is rounding noise of ``v = w - gamma u^beta`` (the state's
 #: accumulated rounding, relative to the damper's share gamma u^beta ~ w).
 ROUNDING_V = 1e-12
