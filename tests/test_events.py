@@ -20,6 +20,7 @@ from sweep.kernels.contact import make_law, rhs
 from sweep.kernels.events import ON_U, ON_V, locate
 from sweep.kernels.march import _detach, _restep
 from sweep.kernels.stepper import N_DENSE, N_STAGES, dense_coefficients, rk_step
+from sweep.kernels.stepsize import MIN_STEPS, policy
 
 EPS = np.finfo(float).eps
 
@@ -121,3 +122,72 @@ def test_located_turn_is_the_root_of_the_interpolated_velocity(gamma, gtilde):
         v = np.r_[Q[1, ::-1] - gamma * Q[0, ::-1], w0 - gamma * u0]
         assert abs(th - _root_in_step(v)) <= 1e-13
         assert abs(th - frac) <= 1e-7
+
+
+@numba.njit
+def _bisected_exit(u0, w0, r0, s, c):
+    """The root of u over the re-steps of the step s from (u0, w0, r0), by bisection to
+    the last bit (the slow, plain reference of _detach's Newton), and the state there:
+    ``(d, u, w, r)``."""
+    _, K, K2, _ = _one_step(u0, w0, s, c)
+    lo, hi = 0.0, s
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        u, _, _ = _restep(u0, w0, r0, mid, K, K2, c)
+        if u > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    u, w, r = _restep(u0, w0, r0, lo, K, K2, c)
+    return lo, u, w, r
+
+
+@numba.njit
+def _exit_step(c, steps):
+    p = policy(c, steps)
+    return p.s_min if p.graded else p.h
+
+
+@numba.njit
+def _detached(u0, w0, r0, s, c):
+    _, K, K2, Q = _one_step(u0, w0, s, c)
+    return _detach(u0, w0, r0, s, 0.0, 1.0, Q, K, K2, c)
+
+
+# (alpha, beta, gamma, g~): the report's laws, and exponents near 1, where u^(beta-1)
+# varies fastest near the floor.
+EXIT_LAWS = [(1.0, 1.0, 0.3, 0.2), (2.0, 3.0, 0.2, 1.0), (1.5, 1.5, 0.1, 0.3),
+             (1.5, 1.0, 0.2, 0.05), (1.5, 1.25, 0.2, 0.05), (1.02, 1.02, 0.25, 0.002),
+             (2.6, 1.04, 0.21, 0.02)]
+
+
+@pytest.mark.parametrize("alpha, beta, gamma, gtilde", EXIT_LAWS)
+@pytest.mark.parametrize("steps", [MIN_STEPS, 33.3, 96.0])
+def test_detachment_state_is_the_re_steps_own_at_its_root(alpha, beta, gamma, gtilde, steps):
+    """Newton stops once its correction, applied to first order, is as good as another
+    re-step: the time, velocity and dissipated energy must be the re-step's own at its root
+    (bisection) to rounding (64 ulps of 1; measured: 32), in the steps in which a march
+    meets the floor (the smallest graded step where an exponent is not an integer, else
+    the base step), and the iteration must end after a few re-steps."""
+    c = make_law(alpha, beta, gamma, gtilde)
+    s = _exit_step(c, steps)
+    v0, r0 = -0.5, 0.1
+    checked = 0
+    for frac in (0.05, 0.5, 0.95):    # where in the step the bead reaches the floor
+        u0 = frac * s * abs(v0)
+        w0 = v0 + gamma * u0 ** beta
+        if _one_step(u0, w0, s, c)[0] >= 0.0:
+            continue                   # the load turns the bead back before the floor
+        d, q_f, v_f, used = _detached(u0, w0, r0, s, c)
+        d_ref, u_ref, w_ref, r_ref = _bisected_exit(u0, w0, r0, s, c)
+        assert abs(u_ref) <= 4 * EPS * u0
+        v_ref = w_ref - gamma * max(u_ref, 0.0) ** beta
+        q_ref = gamma * v_ref * max(u_ref, 0.0) ** beta + r_ref
+        assert abs(d - d_ref) <= 64 * EPS, (frac, d, d_ref)
+        assert abs(v_f - v_ref) <= 64 * EPS, (frac, v_f, v_ref)
+        assert abs(q_f - q_ref) <= 64 * EPS, (frac, q_f, q_ref)
+        assert 1 <= used <= 4
+        checked += 1
+    assert checked >= 2

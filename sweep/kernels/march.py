@@ -60,7 +60,8 @@ _ENERGY_ROUNDOFF = 1e-12
 # u at d carries rounding, so smaller corrections are noise, and a bound below one ulp of
 # d (2e-16 d, as before) let the iteration swing between two neighbouring floats up to
 # its cap (2.4% of the KK core draw took all 12 re-steps).
-_NEWTON_STOP = 4.0 * float(np.finfo(np.float64).eps)
+_EPS = float(np.finfo(np.float64).eps)
+_NEWTON_STOP = 4.0 * _EPS
 
 
 @jit(inline="always")
@@ -85,6 +86,14 @@ def _restep(u, w, r, d, K, K2, c):
 
 
 @jit(inline="always")
+def _linear_enough(ue, ve, delta, d, c):
+    """The Newton correction ``delta`` from the re-stepped ``(ue, ve)`` at time d leaves u
+    a residual ``a delta^2 / 2`` (a the acceleration) below one ulp of u's scale over the
+    step, ``|ve| d``: applied to first order it is as good as another re-step."""
+    return 0.5 * abs(accel(max(ue, 0.0), ve, c)) * delta * delta <= _EPS * abs(ve) * d
+
+
+@jit(inline="always")
 def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, c):
     """Refine the detachment u = 0 inside ``[th_lo, th_hi]`` of the step from ``(u, w, r)``.
 
@@ -98,6 +107,7 @@ def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, c):
     d = th * s
     used = 0
     ue = 0.0
+    we = 1.0
     ve = -1.0
     r_e = r
     for _ in range(12):
@@ -108,19 +118,22 @@ def _detach(u, w, r, s, th_lo, th_hi, Q, K, K2, c):
             lo = d
         else:
             hi = d
-        dn = d - ue / ve if ve < 0.0 else 0.5 * (lo + hi)
+        newton = ve < 0.0
+        dn = d - ue / ve if newton else 0.5 * (lo + hi)
         if not (lo <= dn <= hi):
             dn = 0.5 * (lo + hi)
-        if abs(dn - d) <= _NEWTON_STOP * d or hi - lo <= _NEWTON_STOP * d:
+            newton = False
+        if (abs(dn - d) <= _NEWTON_STOP * d or hi - lo <= _NEWTON_STOP * d
+                or (newton and _linear_enough(ue, ve, dn - d, d, c))):
             d = dn
             break
         d = dn
-    # The last Newton correction is O(u_e), within roundoff; apply it to first order.
+    # The last Newton correction delta is applied to first order. At the root u = 0, so
+    # v = w and q = r there (q = gamma v u^beta + r): both are read off the smooth state
+    # (u, w, r), whose derivatives are the right-hand side's.
     delta = -ue / ve if ve < 0.0 else 0.0
-    v_f = ve + delta * (c.gtilde - ppow_called(ue, c.alpha, c.ka))
-    q_f = (dissipated(ue, ve, r_e, c)
-           + delta * c.gamma * c.beta * ppow_called(ue, c.beta - 1.0, c.kd) * ve * ve)
-    return d, q_f, v_f, used
+    _, fw, fr = rhs_called(ue, we, c)
+    return d, r_e + delta * fr, we + delta * fw, used
 
 
 @jit(inline="always")
