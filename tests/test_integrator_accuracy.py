@@ -136,6 +136,22 @@ def test_extreme_exponents_against_dop853(name, gtilde):
     _check(name, gtilde)
 
 
+# Heavily damped points of a random audit over alpha, beta in [1, 4], gamma to 30 (2026-12-02)
+# whose refinement at a coarse tol compared two marches with stalled errors: the
+# Richardson estimate alone fell 2.5 to 13 times short of the true error (still within tol).
+STALLED = [(1.0, 1.5, 1.686, 0.04973, 1e-6), (1.0, 1.7292, 4.407, 4.374e-4, 1e-6),
+           (1.5232, 1.5403, 2.310, 0.0, 1e-6), (1.3320, 1.5, 2.566, 0.0, 1e-6),
+           (1.0, 2.8293, 18.17, 0.0, 1e-6), (1.0, 1.5, 3.244, 1.528e-3, 1e-8)]
+
+
+@pytest.mark.parametrize("alpha, beta, gamma, gtilde, tol", STALLED)
+def test_refined_estimate_bounds_the_error_where_errors_stall(alpha, beta, gamma, gtilde, tol):
+    ref = dop853_cor(alpha, beta, gamma, gtilde)
+    r = sweep.integrate(alpha, beta, gamma, gtilde, tol=tol)
+    assert not ref.sticks and r.status == Status.OK
+    assert abs(r.e - ref.e) <= min(tol, r.e_err), (r.e, ref.e, r.e_err)
+
+
 def test_status_is_consistent_with_e():
     for name in ("linear", *MODELS, *EXTREME):
         for gtilde in LOADS:
