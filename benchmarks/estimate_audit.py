@@ -7,9 +7,9 @@ uniform in [1, 4] with alpha = 1 (20%) and 3/2 (15%) drawn often, gamma = 10**U(
 g~ = 0 (20%) or 10**U(-4, 3). Each point's reference is the test suite's DOP853
 (``tests/reference.py``, rtol 1e-13, on every core). For the defaults and ``tol`` 1e-8 and
 1e-6 it prints how many points rebounding in the reference have a true error above both
-their ``e_err`` and 1e-12 (the reference's own accuracy at large loads), and the worst
-ratio true / ``e_err`` among the points off by more than 1e-12; ``--show`` lists the first
-violations.
+their ``e_err`` and 1e-12 (the reference's own accuracy at large loads), the worst ratio
+true / ``e_err`` among the points off by more than 1e-12, and how many stick/rebound
+decisions the reference contradicts beyond ``e_err``; ``--show`` lists the first of each.
 
 The reference has limits of its own: at g~ of several hundred it is off by ~1e-12, and its
 rest box (1e-8) stops slow creeps at g~ = 0 that still leave with e ~ 1e-8 (run it with a
@@ -71,16 +71,22 @@ def main(argv=None) -> None:
         with concurrent.futures.ProcessPoolExecutor() as pool:
             refs = list(pool.map(_reference, zip(a, b, g, gt), chunksize=8))
         e_ref = np.array([e for e, _ in refs])
-        leaves = np.isfinite(e_ref) & ~np.array([s for _, s in refs])
+        sticks = np.array([s for _, s in refs])
+        leaves = np.isfinite(e_ref) & ~sticks
         for name, kw in SETTINGS.items():
             r = sweep.integrate(a, b, g, gt, **kw)
             err = np.abs(r.e - e_ref)
             judged = leaves & (err > 1e-12)
             ratio = np.where(judged, err / np.maximum(r.e_err, 1e-300), 0.0)
             bad = np.flatnonzero(judged & (err > r.e_err))
+            # A decision the reference contradicts beyond e_err: sweep's e = 0 where the
+            # reference leaves, or sweep's e > 0 where it sticks.
+            flip = np.flatnonzero(np.isfinite(e_ref) & (err > r.e_err) & (err > 1e-12)
+                                  & ((r.e == 0) != sticks))
             print(f"seed {seed} {name:9s}: {leaves.sum()} rebounds, {bad.size} with true error "
-                  f"> e_err and > 1e-12; worst true/e_err there {np.nanmax(ratio):.2f}")
-            for i in bad[:args.show]:
+                  f"> e_err and > 1e-12; worst true/e_err there {np.nanmax(ratio):.2f}; "
+                  f"{flip.size} decisions contradicted")
+            for i in np.r_[bad[:args.show], flip[:args.show]]:
                 print(f"    ({a[i]:.5g}, {b[i]:.5g}, {g[i]:.4g}, {gt[i]:.4g}): e {r.e[i]:.12g}, "
                       f"DOP853 {e_ref[i]:.12g}, e_err {r.e_err[i]:.2e}")
 
