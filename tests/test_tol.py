@@ -68,3 +68,30 @@ def test_first_march_estimate_keeps_its_room_at_every_resolution():
     # pessimistic from 12 to 48 steps (they fall like steps^-4, the error like steps^-5):
     # 0.39 -> 0.09 on this draw with KAPPA_STEPS = infinity, 0.47 -> 0.33 with 8.
     assert worst[48] >= 0.35 * worst[12], worst
+
+
+# Points of a wide draw (2026-12-02) that came back beyond tol = 1e-5 with an e_err within
+# it, from one march at the error model's coarsest resolution (8 steps), before the
+# estimate was widened there (sweep.kernels.outcome.COARSE_STEPS).
+COARSE = [(1.0, 2.5, 0.6891122748739117, 0.0009233754938883981),
+          (1.0, 2.9275795917930654, 0.5868090013024987, 0.0),
+          (1.0, 2.6074397307181516, 0.65537791340707, 0.0)]
+
+
+@pytest.mark.parametrize("alpha, beta, gamma, gtilde", COARSE)
+@pytest.mark.parametrize("tol", [1e-4, 1e-5, 3e-6])
+def test_tol_is_met_or_the_estimate_says_so_at_coarse_resolutions(alpha, beta, gamma, gtilde,
+                                                                  tol):
+    ref = reference.dop853_cor(alpha, beta, gamma, gtilde)
+    r = sweep.integrate(alpha, beta, gamma, gtilde, tol=tol)
+    err = abs(float(r.e) - ref.e)
+    assert err <= float(r.e_err), (err, float(r.e_err))
+    assert err <= tol or float(r.e_err) > tol, (err, float(r.e_err))
+
+
+def test_first_march_estimate_is_a_bound_at_the_coarsest_resolution():
+    """One march at 8 steps (what tol >= 5e-6 takes) on the points above."""
+    for alpha, beta, gamma, gtilde in COARSE:
+        ref = reference.dop853_cor(alpha, beta, gamma, gtilde)
+        r = sweep.integrate(alpha, beta, gamma, gtilde, steps=8.0, refine=False)
+        assert abs(float(r.e) - ref.e) <= float(r.e_err)

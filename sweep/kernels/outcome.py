@@ -54,6 +54,7 @@ from sweep.kernels.march import CREEP, EXIT, NEGLIGIBLE, REST, SPENT, TROUGH
 from sweep.registry import Status
 
 __all__ = ["decide", "cor_at_exit", "ROUNDING", "KAPPA_Q", "KAPPA_W", "KAPPA_STEPS",
+           "COARSE_STEPS",
            "GRAZING_SPEED", "GRAZING_MAX", "GRAZING_DAMPING", "BALANCE_MIN_E2",
            "DAMPED_OUT"]
 
@@ -81,6 +82,16 @@ KAPPA_W = 1.5
 #: (``python benchmarks/tol_margin.py``; 0.61 on 100,000 general points) and below 0.93 on
 #: a wide draw (alpha, beta in [1, 3], gamma to 30, g~ to 1000), where 16 gave 0.87.
 KAPPA_STEPS = 8.0
+#: Resolution below which the estimate of q's error (its local-error and defect terms) is
+#: widened by ``(COARSE_STEPS / steps)^1.5`` (``tol`` above about 3e-7 takes such
+#: resolutions, and 8 steps from 5e-6 on). The constants above were calibrated from 16
+#: steps on; at 8 to 13 steps the true error reached 1.66 times the estimate on a wide draw
+#: (200,000 points, alpha, beta in [1, 3] with 1, 5/4, 3/2 and 5/2 drawn often, gamma =
+#: 10**U(-6, 1), g~ = 0 or 10**U(-4, 3)), and three points came back beyond tol = 1e-5
+#: with e_err within it. Widened, the largest ratio is 0.99 at tol 1e-6 and 0.73-0.81 at
+#: 3e-6 to 1e-3, for 1-11% more steps there (7% on the KK draw at tol 1e-6; the factor 1
+#: instead of 1.5 left 1.09).
+COARSE_STEPS = 16.0
 #: Speed below which the velocity's estimate grows like GRAZING_SPEED / e, up to
 #: GRAZING_MAX times. Near grazing the bead leaves with a small e after a stretch of light
 #: damping, so an error dE of the energy there becomes dE / e in the velocity, and the
@@ -95,6 +106,12 @@ GRAZING_MAX = 100.0
 GRAZING_DAMPING = 1000.0
 #: Relative rounding of the march's energy bookkeeping (q and the defect): a floor for dq.
 ROUNDING = 4e-16
+
+
+@jit(inline="always")
+def _coarse(steps):
+    """Room the march's estimate needs below :data:`COARSE_STEPS` (see there)."""
+    return (COARSE_STEPS / steps) ** 1.5 if steps < COARSE_STEPS else 1.0
 
 
 @jit(inline="always")
@@ -187,7 +204,8 @@ def decide(c, end, steps):
     defect = 0.5 * end.v * end.v + potential(end.u, c) - h
     swing2 = 1.0 + 2.0 * well_depth(c.alpha, c.gtilde)
     kappa = KAPPA_Q * min(1.0, KAPPA_STEPS / steps)
-    dq = kappa * end.lq + abs(defect) / swing2 + ROUNDING * math.sqrt(end.n + 1.0)
+    dq = (kappa * end.lq + abs(defect) / swing2) * _coarse(steps) \
+        + ROUNDING * math.sqrt(end.n + 1.0)
     if end.kind == EXIT:
         return _exit(c, end, h, defect, dq, swing2)
     if end.kind == TROUGH:
