@@ -7,7 +7,9 @@ references (issue 10, item 1).
   (gamma = 10^U(-4, -0.5), g~ = 10^U(-3, 1)).
 * The first march's ``e_err`` is an upper bound at every resolution, and its
   pessimism does not grow with the resolution: the summed embedded estimates fall one order
-  slower than the march's error, which ``sweep.kernels.outcome.KAPPA_STEPS`` accounts for.
+  slower than the march's error, which ``sweep.kernels.outcome.KAPPA_STEPS`` accounts for;
+  at the coarsest resolutions (tol >= 5e-6: 8 steps) it is widened
+  (``sweep.kernels.outcome.COARSE_STEPS``), checked on points a wide draw found short.
 """
 from __future__ import annotations
 
