@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from sweep.kernels import contact
-from sweep.kernels._jit import FLAGS as contact_flags
+from sweep.kernels._jit import FLAGS
 from sweep.kernels.creep import slow_velocity
 from sweep.registry import MODELS
 
@@ -65,7 +65,7 @@ def test_slow_branch_velocity(alpha, beta):
 
 # --------------------------------------------------------------------------- rows of laws
 
-@numba.njit(**contact_flags)
+@numba.njit(**FLAGS)
 def _row_rhs(u, w, alpha, beta, gamma, gtilde):
     """rhs_at on the row put_law stores, beside rhs on the law itself."""
     F = np.empty((1, contact.LAW_COLUMNS[0]))

@@ -38,13 +38,13 @@ def _one_step(u0, w0, s, c):
 
 
 @numba.njit
-def _detachment(u0, w0, s, c):
-    """``(d, v_f, re-steps used, u after a re-step of d, u at the step's end)`` for the
-    step s from (u0, w0)."""
+def _detachment(u0, w0, s, c, r0=0.0):
+    """``(d, q_f, v_f, re-steps used, u after a re-step of d, u at the step's end)`` for
+    the step s from (u0, w0, r0)."""
     u1, K, K2, Q = _one_step(u0, w0, s, c)
-    d, _, v_f, used = _detach(u0, w0, 0.0, s, 0.0, 1.0, Q, K, K2, c)
-    u_d, _, _ = _restep(u0, w0, 0.0, d, K, K2, c)
-    return d, v_f, used, u_d, u1
+    d, q_f, v_f, used = _detach(u0, w0, r0, s, 0.0, 1.0, Q, K, K2, c)
+    u_d, _, _ = _restep(u0, w0, r0, d, K, K2, c)
+    return d, q_f, v_f, used, u_d, u1
 
 
 @numba.njit
@@ -83,7 +83,7 @@ def test_detachment_is_the_exact_exit_time(gamma, gtilde):
     for frac in np.linspace(0.03, 0.97, 25):
         t0 = exact.t_f - frac * s
         u0, w0 = _exact_state(gamma, gtilde, t0)
-        d, v_f, n, u_d, u1 = _detachment(u0, w0, s, law)
+        d, _, v_f, n, u_d, u1 = _detachment(u0, w0, s, law)
         assert u1 < 0.0 < u0
         used.append(n)
         # One step's error (s^6) bounds where the detachment is and how fast the bead leaves.
@@ -150,12 +150,6 @@ def _exit_step(c, steps):
     return p.s_min if p.graded else p.h
 
 
-@numba.njit
-def _detached(u0, w0, r0, s, c):
-    _, K, K2, Q = _one_step(u0, w0, s, c)
-    return _detach(u0, w0, r0, s, 0.0, 1.0, Q, K, K2, c)
-
-
 # (alpha, beta, gamma, g~): the report's laws, and exponents near 1, where u^(beta-1)
 # varies fastest near the floor.
 EXIT_LAWS = [(1.0, 1.0, 0.3, 0.2), (2.0, 3.0, 0.2, 1.0), (1.5, 1.5, 0.1, 0.3),
@@ -180,7 +174,7 @@ def test_detachment_state_is_the_re_steps_own_at_its_root(alpha, beta, gamma, gt
         w0 = v0 + gamma * u0 ** beta
         if _one_step(u0, w0, s, c)[0] >= 0.0:
             continue                   # the load turns the bead back before the floor
-        d, q_f, v_f, used = _detached(u0, w0, r0, s, c)
+        d, q_f, v_f, used, _, _ = _detachment(u0, w0, s, c, r0)
         d_ref, u_ref, w_ref, r_ref = _bisected_exit(u0, w0, r0, s, c)
         assert abs(u_ref) <= 4 * EPS * u0
         v_ref = w_ref - gamma * max(u_ref, 0.0) ** beta
