@@ -54,7 +54,7 @@ def main(argv=None):
     print(f"first call, parallel kernel (compile or cache load): "
           f"{time.perf_counter() - t0:.2f} s  (threading layer: {numba.threading_layer()})")
     print(f"points: {args.n:,}{' (mixed beta)' if args.mixed else ''}")
-    for method in approx.METHODS:
+    for method in approx.CODES:
         best = np.inf
         for _ in range(args.repeat):
             t0 = time.perf_counter()

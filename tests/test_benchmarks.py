@@ -195,3 +195,18 @@ def test_step_cost_script_fits_a_cost_per_step():
     n48, n192 = (float(x) for x in line.split("(")[1].split(" steps per point")[0].split(" and "))
     # Four times the resolution: about four times the steps (graded zone and events aside).
     assert 3.0 < n192 / n48 < 4.5, line
+
+
+def test_approx_throughput_script_times_every_closed_form():
+    script = ROOT / "benchmarks" / "approx_throughput.py"
+    res = subprocess.run([sys.executable, str(script), "--n", "2000", "--repeat", "1"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    rows = {line.split(":")[0].strip(): line for line in res.stdout.splitlines()
+            if "points/s" in line}
+    from sweep.kernels.approx import CODES
+    assert set(rows) == set(CODES)
+    for method, line in rows.items():
+        # KK points of the core draw: every closed form defined, e in (0, 1).
+        assert "invalid 0)" in line, line
+        assert 0.0 < float(line.split("mean e ")[1].split(",")[0]) < 1.0, line

@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from sweep.kernels._jit import cached_jit
+from sweep.kernels._jit import cached_jit, jit
 from sweep.kernels._parallel import map_blocks, parallel_allowed, threads
 from sweep.kernels.contact import in_domain
 from sweep.kernels.special import (chebyshev_tables, first_order_constants, iq_at_zero,
@@ -114,6 +114,40 @@ def _ord2(beta, gamma, i_, q_):
     return _clip01(min(ep, es))
 
 
+@jit(inline="always")
+def _constants(code, a, b):
+    """The constants of the exponents ``(a, b)`` that ``code`` uses (NaN for the others):
+    (22)'s ``(C0, C1)``, (23)'s ``(C, r)`` or ``(I(0), Q(0))`` of (39), (40)."""
+    if code == _ORD1 or code == _SP or code == _CONST_FIRST:
+        return first_order_constants(a, b)
+    if code == _LARGE or code == _CONST_LARGE:
+        return large_gtilde_constants(a, b)
+    if code == _COEF_ZERO:
+        return iq_at_zero(a, b)
+    return math.nan, math.nan
+
+
+@jit(inline="always")
+def _evaluate(code, b, g, gt, k1, k2, x1, x2):
+    """``(e, good)`` of one valid point: e of the method (NaN for the coefficient codes)
+    and whether the point's outputs are finite."""
+    ev = math.nan
+    if code == _ORD1:
+        ev = 1.0 - g * (k1 + gt * k2)
+        if ev < 0.0:
+            ev = 0.0
+    elif code == _SP:
+        ev = _clip01(1.0 - g * (k1 + gt * k2) - g * g * SP_C2)
+    elif code == _LARGE:
+        ev = _sqrt_plus(1.0 - 2.0 * g * k1 * gt ** k2)
+    elif code == _ORD2_NUMINT or code == _ORD2_APPROX:
+        if math.isfinite(x1) and math.isfinite(x2):
+            ev = _ord2(b, g, x1, x2)
+    if code >= _COEF_NUMINT:
+        return ev, math.isfinite(x1) and math.isfinite(x2)
+    return ev, math.isfinite(ev)
+
+
 @cached_jit()
 def _kernel(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
     """Evaluate every point serially; ``nogil``, so that
@@ -124,61 +158,31 @@ def _kernel(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
     values are the same either way.
     """
     store_aux = aux1.size > 0     # approx_cor passes empty aux arrays: no I, Q wanted
-    uses_cheb = code == _ORD2_APPROX or code == _COEF_APPROX
-    n_tab = n if uses_cheb else 1
+    n_tab = n if code == _ORD2_APPROX or code == _COEF_APPROX else 1
     logx, cosjk = chebyshev_tables(n_tab)
     work = np.empty((5, n_tab + 1))
-    prev_a = math.nan
-    prev_b = math.nan
-    k1 = math.nan
-    k2 = math.nan
+    prev_a = prev_b = k1 = k2 = math.nan
     for i in range(alpha.size):
-        a = alpha[i]
-        b = beta[i]
-        g = gamma[i]
-        gt = gtilde[i]
+        a, b, g, gt = alpha[i], beta[i], gamma[i], gtilde[i]
         if not in_domain(a, b, g, gt):
             e[i] = math.nan
             status[i] = _INVALID
             if store_aux:
-                aux1[i] = math.nan
-                aux2[i] = math.nan
+                aux1[i] = aux2[i] = math.nan
             continue
         if a != prev_a or b != prev_b:
-            if code == _ORD1 or code == _SP or code == _CONST_FIRST:
-                k1, k2 = first_order_constants(a, b)
-            elif code == _LARGE or code == _CONST_LARGE:
-                k1, k2 = large_gtilde_constants(a, b)
-            elif code == _COEF_ZERO:
-                k1, k2 = iq_at_zero(a, b)
-            prev_a = a
-            prev_b = b
-        ev = math.nan
-        x1 = math.nan
-        x2 = math.nan
-        if code == _ORD1:
-            ev = 1.0 - g * (k1 + gt * k2)
-            if ev < 0.0:
-                ev = 0.0
-        elif code == _SP:
-            ev = _clip01(1.0 - g * (k1 + gt * k2) - g * g * SP_C2)
-        elif code == _LARGE:
-            ev = _sqrt_plus(1.0 - 2.0 * g * k1 * gt ** k2)
-        elif code == _ORD2_NUMINT or code == _COEF_NUMINT:
+            k1, k2 = _constants(code, a, b)
+            prev_a, prev_b = a, b
+        # Here, not in a helper: an array passed to an inlined function has its reference
+        # count updated at every point (atomics: 5x the time of "ord1").
+        x1 = x2 = math.nan
+        if code == _ORD2_NUMINT or code == _COEF_NUMINT:
             x1, x2 = iq_quadrature(a, b, gt)
         elif code == _ORD2_APPROX or code == _COEF_APPROX:
             x1, x2 = iq_chebyshev(a, b, gt, n, logx, cosjk, work)
-        else:       # _CONST_FIRST, _CONST_LARGE, _COEF_ZERO
-            x1 = k1
-            x2 = k2
-        if code == _ORD2_NUMINT or code == _ORD2_APPROX:
-            if math.isfinite(x1) and math.isfinite(x2):
-                ev = _ord2(b, g, x1, x2)
-            good = math.isfinite(ev)
-        elif code >= _COEF_NUMINT:
-            good = math.isfinite(x1) and math.isfinite(x2)
-        else:
-            good = math.isfinite(ev)
+        elif code >= _CONST_FIRST:
+            x1, x2 = k1, k2
+        ev, good = _evaluate(code, b, g, gt, k1, k2, x1, x2)
         e[i] = ev if good else math.nan
         status[i] = _OK if good else _INVALID
         if store_aux:
