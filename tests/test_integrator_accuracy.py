@@ -319,3 +319,20 @@ def print_table():
 
 if __name__ == "__main__":
     print_table()
+
+
+@pytest.mark.parametrize("tol", [1e-8, 3e-10, 1e-10, 1e-11])
+def test_refined_estimate_stays_meaningful_near_critical_damping(tol):
+    """The linear law at g~ = 0 towards critical damping (gamma -> 2, where e falls to
+    1e-14) against its closed form: refined to its cap, e_err still bounds the error and
+    says e is good to far better than 1e-8. Seen before: e_err 1769 at gamma = 1.9 and
+    tol = 1e-10 (two marches 1 + 2e-16 apart in resolution under the cap, Richardson
+    dividing by ~0), and up to 0.9 where e ~ 1e-14 comes from the velocity (the energy
+    balance's rounding floor, amplified by 1/e, charged to it)."""
+    gam = np.linspace(1.5, 1.99, 50)
+    ref = np.array([linear_cor(g, 0.0).e for g in gam])
+    r = sweep.integrate(1.0, 1.0, gam, 0.0, tol=tol)
+    err = np.abs(r.e - ref)
+    assert np.all(r.status == Status.OK)
+    assert np.all(err <= 2 * r.e_err + 1e-18), (gam[err > 2 * r.e_err], r.e_err)
+    assert np.all(r.e_err <= 1e-8), list(zip(gam[r.e_err > 1e-8], r.e_err[r.e_err > 1e-8]))

@@ -15,7 +15,8 @@ Per point (scaled parameters ``alpha, beta, gamma, g~``):
    the error of the finer march, which is kept. If that
    exceeds the target too, the point is marched again at ``f = 1.25 (e_err /
    target)^(1/5)`` times the resolution (at most
-   :data:`MAX_REFINEMENT` in all), and so on. A finer march that runs out of the step
+   :data:`MAX_REFINEMENT` in all, each march at least :data:`MIN_RATIO` times finer than
+   the one before), and so on. A finer march that runs out of the step
    budget (a slow creep at g~ = 0 needs many steps at every resolution) is dropped: the
    last completed one is kept, with its own estimate.
 
@@ -71,6 +72,8 @@ DEFAULT_REST_TOL = _OPTIONS["rest_tol"]
 REFINE_TARGET = 1e-9
 #: Largest refinement of the resolution, in all.
 MAX_REFINEMENT = 8.0
+#: Smallest ratio of the resolutions of two successive marches of a refinement.
+MIN_RATIO = 1.5
 #: Refinement goes on until the Richardson error is below this fraction of the target.
 REFINE_MARGIN = 0.25
 #: Order assumed by Richardson's error estimate, ``|e_fine - e_coarse| / (ratio^p - 1)``:
@@ -165,17 +168,22 @@ def _solve_at(c, steps, s, budget, K, K2, Q):
 @jit(inline="always")
 def _richardson(fine, coarse, ratio):
     """``(e_err, floor)`` of the finer of two marches ``ratio`` apart in resolution: their
-    difference over ``ratio^RICHARDSON_ORDER - 1`` plus the rounding floor of the energy balance
-    (~1e-15 in q, amplified by 1/e), which refinement cannot lower, and no less than the
-    finer march's own estimate. (The velocity's e, used where e < 3e-5, is not
-    extrapolated: its errors do not follow the order reliably.)
+    difference over ``ratio^RICHARDSON_ORDER - 1`` plus, where e is the energy balance's,
+    its rounding floor (~1e-15 in q, amplified by 1/e), which refinement cannot lower, and
+    no less than the finer march's own estimate (which carries the rounding of e where e
+    is the velocity's, :func:`sweep.kernels.outcome.cor_at_exit`).
 
     The own estimate covers errors that stall between two resolutions before the
     asymptotic regime (a sign change, then a plateau), where the difference of the two
     marches is far below the finer one's error: Richardson alone fell short by up to 13
     times on heavily damped points at ``tol=1e-6`` (docs/accuracy.md). It never binds on
     the core benchmark's draws (the same steps, the same e_err)."""
-    floor = ROUNDING * math.sqrt(fine.n + 1.0) / max(fine.e, 1e-300)
+    # The floor is the balance's, where e is the balance's: a heavily damped bead that
+    # leaves with e ~ 1e-14 has e from the velocity (outcome.cor_at_exit), whose rounding
+    # is in fine.err, and the balance's floor would be ~1 (seen: e_err 0.9, error 1e-26).
+    floor = 0.0
+    if fine.e == fine.e_q:
+        floor = ROUNDING * math.sqrt(fine.n + 1.0) / max(fine.e, 1e-300)
     if fine.status != _OK or coarse.status != _OK:
         # The decision changed with the resolution: only the difference is an honest bound.
         return max(fine.err, abs(fine.e - coarse.e)), 0.0
@@ -266,9 +274,14 @@ def _refine_update(r, a, s):
     if a.status == _BUDGET:
         return True, _kept(r.last, n, r.err), r
     err, floor = _richardson(a, r.last, r.f)
-    if not (err - floor > aim and done < MAX_REFINEMENT and n < s.max_steps):
+    # Another march needs room for a ratio of at least MIN_RATIO: between marches closer
+    # in resolution, Richardson divides a difference of rounding and non-asymptotic
+    # wiggles by ratio^p - 1, near 0 (seen: e_err 1769 from marches 1.0000000000000002
+    # apart, under the cap, for a linear-law point at tol=1e-10).
+    room = MAX_REFINEMENT / done
+    if not (err - floor > aim and room >= MIN_RATIO and n < s.max_steps):
         return True, (a.e, a.t_f, a.u_max, n, a.status, err), r
-    f = min(max(1.25 * (err / aim) ** 0.2, 1.5), MAX_REFINEMENT / done)
+    f = min(max(1.25 * (err / aim) ** 0.2, MIN_RATIO), room)
     return False, (a.e, a.t_f, a.u_max, n, a.status, err), Refining(done, f, err, n, a)
 
 
