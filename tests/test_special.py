@@ -79,9 +79,17 @@ def test_umax_is_the_root_of_13_to_rounding(alpha):
     # Newton iteration starts from an upper bound at every load (mpmath bisection here).
     from reference import umax_mp
     ka = contact.make_law(alpha, alpha, 0.0, 0.0).ka
-    for g in (0.0, 1e-9, 1e-3, 0.3, 1.0, 7.0, 500.0, 1e6, 1e12):
+    # Loads to the largest double: u^(a+1) overflows beyond ~1e154 (it gave -inf), and
+    # the bound's pow, with 1/alpha rounded, falls ~ln(bound) ulps below the root (26 ulps
+    # at 1e30 for alpha = 3/2); where the root itself overflows, inf.
+    loads = [0.0, 1e-9, 1e-3, 0.3, 1.0, 7.0, 500.0, 1e6, 1e12, 1e30, 1e60, 1e100, 1e154,
+             1e155, 1e200, 1e250, 1e300, 1e308, 1.7e308]
+    for g in loads:
         ref = float(umax_mp(alpha, g))
-        assert contact.umax_undamped(alpha, g, ka) == pytest.approx(ref, rel=4 * EPS), (alpha, g)
+        got = contact.umax_undamped(alpha, g, ka)
+        # Beyond 1.8e308 / (alpha + 1), u^alpha overflows: the asymptote, to ~ln(g~) ulps.
+        rel = 4 * EPS if (alpha + 1) * g < 1.79e308 else 1e-13
+        assert got == pytest.approx(ref, rel=rel) or got == ref == math.inf, (alpha, g, got)
 
 
 @pytest.mark.parametrize("alpha", [1.0, 1.5, 3.0])

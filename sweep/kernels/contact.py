@@ -388,7 +388,9 @@ def umax_undamped(alpha, gtilde, ka):
     ``ka``: the :func:`power_kind` of alpha (``Law.ka``), for a pow-free ``u^alpha``.
 
     Newton's method from an upper bound converges monotonically (the left side is convex in
-    u and increasing past the root), so a fixed number of iterations gives full precision.
+    u and increasing past the root), so a fixed number of iterations gives full precision
+    (within 1 ulp of an mpmath root up to g~ = 1e308; beyond ``1.8e308 / (alpha + 1)``, the
+    asymptote ``((alpha + 1) g~)^(1/alpha)``).
     """
     ap1 = alpha + 1.0
     u0 = (0.5 * ap1) ** (1.0 / ap1)
@@ -398,14 +400,28 @@ def umax_undamped(alpha, gtilde, ka):
     # (A tighter one, (ap1 (g~ + 1/(2 lb)))^(1/a) with lb the larger of the two terms, saves
     # 1.3 of 5.8 iterations but stalls up to 5 ulps from the root at large loads, where f
     # cancels: from this one the last steps are quadratic and end within 1 ulp.)
+    if math.isinf(ap1 * gtilde):
+        # u^alpha ~ (alpha + 1) g~ overflows: the root's asymptote, good to ~ln(g~) ulps
+        # (inf where u_M itself overflows, alpha near 1).
+        return ap1 ** (1.0 / alpha) * gtilde ** (1.0 / alpha)
     u = u0 + (ap1 * gtilde) ** (1.0 / alpha)
-    for _ in range(100):
+    for i in range(100):
         ua = ppow_called(u, alpha, ka)
-        f = u * ua / ap1 - gtilde * u - 0.5
+        if math.isinf(ua):  # the bound, within ulps of the largest double
+            break
         df = ua - gtilde
-        du = f / df
+        uua = u * ua
+        if math.isinf(uua):
+            # f / u, where u^(a+1) overflows (g~ beyond ~1e154 at alpha = 1, 1e185 at
+            # 3/2): the step is the same, and u_max was -inf.
+            du = u * ((ua / ap1 - gtilde - 0.5 / u) / df)
+        else:
+            du = (uua / ap1 - gtilde * u - 0.5) / df
         u_new = u - du
-        if not (u_new < u):  # monotone decrease stalls at the root
+        # Monotone decrease stalls at the root. The bound itself can fall below it: pow's
+        # exponent 1/alpha is rounded, an error of ~ln(bound) ulps (26 at g~ = 1e30,
+        # alpha = 3/2); the first step then goes up, past the root (f is convex).
+        if i > 0 and not (u_new < u):
             break
         u = u_new
     return u
