@@ -514,7 +514,9 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
           "can count", fill_value=math.nan),
     Field("u_max", np.dtype(np.float64), "maximum compression u_M",
           "scaled maximum compression u(tau_0) where v = 0 (Algorithm 1, phase 1), in units "
-          "of delta = v0 T of eq. (2)", fill_value=math.nan),
+          "of delta = v0 T of eq. (2); NaN where the point was decided before it (a bead "
+          "that sticks while still compressing: heavily damped or overdamped)",
+          fill_value=math.nan),
     Field("n_steps", np.dtype(np.int32), "number of integration steps",
           "Runge-Kutta steps taken to integrate eq. (4) for this point"),
     Field("status", np.dtype(np.int8), "integration status",

@@ -21,7 +21,11 @@ Two more stopping rules keep every point bounded: the report's rest criterion
 (carried along, see :func:`sweep.kernels.contact.rhs`) exceeds the initial 1/2, so that the
 energy ``H = 1/2 - q`` is below the floor's level and the bead can never leave. The energy
 rule applies from phase 2 on, and in phase 1 only when the linearisation about u-bar is
-overdamped (``xi >= 1``), where phase 1 may never end (``u_max`` is then NaN).
+overdamped (``xi >= 1``), where phase 1 may never end. Under heavy damping (the step's
+damping cap active) the creep rules (:mod:`sweep.kernels.creep`) also apply in phase 1, and
+decide a bead that has dissipated more than its energy above the floor's level while still
+compressing (KK at gamma = 1, g~ = 1: at u = 0.61 of the 1.23 it would reach). A point
+decided before maximum compression has ``u_max`` NaN: it is not marched on to find it.
 
 The march reports only *where* it ended (:class:`Ending`: exit, trough, energy spent, rest,
 budget, with the state and q there); :mod:`sweep.kernels.outcome` decides what that means
