@@ -267,3 +267,16 @@ def test_extremes_give_a_number_a_status_and_a_bound():
             & np.isin(st, [Status.OK, Status.STUCK, Status.AT_REST]))
     assert not bad.any(), [(a[i], b[i], g[i], gt[i], e[i], st[i], e_err[i])
                            for i in np.flatnonzero(bad)[:5]]
+
+
+@pytest.mark.parametrize("gtilde", [0.0, 1.0])
+def test_damping_beyond_1e240_is_decided(gtilde):
+    """gamma up to 1e300: the bead creeps in a penetration ~gamma^(-1/beta) and never
+    leaves (e = 0, as at 1e240 in the huge_gamma set). The damping cap's geometric mean
+    s * cap underflowed from gamma ~ 1e245 on (beta = 3/2): the step became 0 and the
+    march spent its budget at tau = 0 (e = 1 +- 1)."""
+    for alpha, beta in ((1.5, 1.5), (1.0, 1.5), (2.5, 3.0), (1.2, 2.0)):
+        r = sweep.integrate(alpha, beta, np.array([1e240, 1e245, 1e260, 1e280, 1e300]), gtilde)
+        assert np.all(np.isin(r.status, (Status.STUCK, Status.AT_REST))), (alpha, beta, r)
+        # (1.2, 2.0) sticks with the undecided bound 3.7e-6 at every such gamma, 1e240 too.
+        assert np.all(r.e == 0.0) and np.all(r.e_err <= 1e-5), (alpha, beta, r)

@@ -191,7 +191,9 @@ def _capped_step(u, v, s, p, c):
         cap = damping_step(u + s * max(v, 0.0) + 0.5 * s * s * c.gtilde, c, p.steps)
         if cap >= s:
             return s
-        s = math.sqrt(s * cap)
+        sc = s * cap
+        # Under a huge damping (gamma ~ 1e245) the product underflows: s became 0.
+        s = math.sqrt(sc) if sc > 1e-290 else math.sqrt(s) * math.sqrt(cap)
     return min(s, damping_step(u + s * max(v, 0.0) + 0.5 * s * s * c.gtilde, c, p.steps))
 
 
