@@ -129,6 +129,9 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
     -------
     IntegrationResult
     """
+    if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
+        # Any truthy object ('no' included) would mean True.
+        raise ValueError(f"parallel must be None, True or False, got {parallel!r}")
     opts = integrator_settings(tol=tol, steps=steps, rest_tol=rest_tol, max_steps=max_steps,
                                refine=refine, device=device)
     device = opts.pop("device")
@@ -149,6 +152,16 @@ def _undefined_raise(m: registry.Method, b: Broadcast) -> None:
                      f"beta={float(b.flat[1][0])!r} (see sweep.registry.METHODS)")
 
 
+def _refuse_unknown(m: registry.Method, options: dict[str, Any]) -> None:
+    """The integration's options are :func:`integrate`'s keywords: refuse any other with
+    the message :meth:`~sweep.registry.Method.check_options` gives, not a TypeError."""
+    allowed = [opt.name for opt in m.options] + ["parallel"]
+    for key in options:
+        if key not in allowed:
+            raise ValueError(f"unknown option {key!r} for method {m.name!r}; "
+                             f"allowed: {', '.join(allowed)}")
+
+
 def cor_fields(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
                **options: Any) -> dict[str, Any]:
     """Every per-point output of a method: ``e``, ``status`` and its own fields.
@@ -163,6 +176,7 @@ def cor_fields(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "nu
     """
     m = registry.method(method)
     if m.integrates:
+        _refuse_unknown(m, options)
         r = integrate(alpha, beta, gamma, gtilde, **options)
         return {f.name: getattr(r, f.name) for f in dataclasses.fields(r)}
     # Validate every option, but pass the kernel only those given: it knows its defaults,

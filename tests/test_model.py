@@ -58,3 +58,10 @@ def test_regime_numbers():
     assert natural_frequency(1.0, 3.0) == pytest.approx(1.0)
     # Linear spring-dashpot: xi = gamma / 2 whatever the load.
     assert damping_ratio(1.0, 1.0, 0.3, 5.0) == pytest.approx(0.15)
+
+
+@pytest.mark.parametrize("value", ["0.154", True, None, 0.154 + 0j])
+def test_scale_refuses_non_numbers_naming_them(value):
+    with pytest.raises(ValueError, match=r"^m must be a real number .*got " + repr(value)
+                       .replace("(", r"\(").replace(")", r"\)").replace("+", r"\+")):
+        sweep.scale(value, 3.6138e10, 1.5237e-6, 1.0, 1.5, 1.5)
