@@ -174,3 +174,32 @@ def test_shapes_that_do_not_broadcast_are_named():
                                          r"broadcast together"):
         sweep.cor(1.5, 1.5, [0.1, 0.2], [1.0, 2.0, 3.0])
 
+
+# --------------------------------------------------------------------------- undefined points
+
+@pytest.mark.parametrize("method", ["ord2_numint", "ord2_approx"])
+def test_ord2_beyond_the_range_of_i_q_names_gtilde(method):
+    # The method is defined at KK; g~ = 1e300 is past the range of I, Q of Prop. 2 (theta
+    # of (43) underflows), so the error must blame g~, as sweep.coefficients does.
+    with pytest.raises(ValueError) as info:
+        sweep.cor(1.5, 1.5, 0.1, 1e300, method=method)
+    msg = str(info.value)
+    assert "gtilde is out of the range of I, Q" in msg and "1e+300" in msg
+    assert "alpha" not in msg
+    with pytest.raises(ValueError, match=r"out of the range of I, Q .*1e\+300"):
+        sweep.coefficients(1.5, 1.5, 1e300)
+
+
+def test_undefined_exponents_still_name_alpha_and_beta():
+    with pytest.raises(ValueError, match=r"method 'sp' is not defined at alpha=2.0, beta=1.5"):
+        sweep.cor(2.0, 1.5, 0.1, 1.0, method="sp")
+
+
+def test_overflowing_formula_names_the_point_not_the_exponents():
+    # gamma^2 of (25) overflows at gamma = 1.7e308 (inf - inf): sp is defined at KK, and
+    # g~ = 1 is well inside the range of I, Q, so neither may be blamed.
+    for method in ("sp", "ord2_numint"):
+        with pytest.raises(ValueError) as info:
+            sweep.cor(1.5, 1.5, 1.7e308, 1.0, method=method)
+        msg = str(info.value)
+        assert "gamma=1.7e+308" in msg and "not defined" not in msg and "range of I" not in msg
