@@ -209,3 +209,19 @@ def test_scene_with_auto_resumes_to_the_uninterrupted_result(tmp_path, monkeypat
         assert np.all(np.abs(b.e_auto - b.e_numeric) <= 1e-3)
         assert b.method_used.attrs["flag_meanings"].split()[0] == "numeric"
         assert b.attrs["options_auto_tol"] == 1e-3 and b.attrs["options_auto_steps"] == 48
+
+
+def test_errors_found_when_the_design_is_built_name_the_file(tmp_path):
+    pulling = SCENE.replace("F = [0.0, 1.0]", "F = [-2.0, 1.0]")
+    with pytest.raises(config.ConfigError, match=r"^scene.toml: design.materials.steel: "
+                                                 r"g \+ F/m must be >= 0"):
+        design.build(config.loads(pulling, source="scene.toml").design, "scene.toml")
+    kk = PROPERTIES.replace('damping = {model = "target_e", e = 0.97, v0 = 1.0}',
+                            'damping = {model = "kuwabara_kono", eta1 = 1.0, eta2 = 2.0}')
+    with pytest.raises(config.ConfigError, match=r"^p.toml: design.materials.glass.nu: must "
+                                                 r"be != 0 for the kuwabara_kono damping"):
+        config.loads(kk.replace("nu = 0.22\nfloor", "nu = 0.0\nfloor"), source="p.toml")
+    path = tmp_path / "pull.toml"
+    path.write_text(pulling)
+    with pytest.raises(config.ConfigError, match=f"^{path}: design.materials.steel: g"):
+        runner.run(path, tmp_path / "out.nc", quiet=True)

@@ -451,10 +451,30 @@ BUILDERS = {
 }
 
 
-def build(spec):
-    """Build the design object of a validated design spec (``Config.design``)."""
+def build(spec, source=""):
+    """Build the design object of a validated design spec (``Config.design``).
+
+    Parameters
+    ----------
+    spec : GridSpec, DoESpec or SceneSpec
+    source : str, optional
+        The configuration's file (``Config.source``), prefixed to errors as the parser
+        prefixes its own.
+
+    Raises
+    ------
+    ConfigError
+        A value the builder refuses (a scene whose loads pull, or whose scaling leaves
+        double precision), naming the material and the value.
+    """
     try:
         builder = BUILDERS[spec.kind]
     except KeyError:
         raise ValueError(f"no design builder for design.kind {spec.kind!r}") from None
-    return builder(spec)
+    try:
+        return builder(spec)
+    except ConfigError as exc:
+        # A builder names the key (design.materials.NAME); the file, as the parser does.
+        if not source:
+            raise
+        raise ConfigError(f"{source}: {exc}") from None
