@@ -17,7 +17,7 @@ import numpy as np
 
 from sweep import registry
 
-__all__ = ["Broadcast", "broadcast_points"]
+__all__ = ["Broadcast", "broadcast_points", "check_broadcast"]
 
 
 class Broadcast:
@@ -39,8 +39,9 @@ class Broadcast:
                 raise TypeError(f"{name} is a labelled array (dims {tuple(a.dims)}); use "
                                 "sweep.xr.cor / sweep.xr.integrate, which broadcast by "
                                 "dimension name")
-        arrays = [np.asarray(a, dtype=np.float64) for a in arrays]
+        arrays = [registry.real_array(name, a) for name, a in zip(names, arrays)]
         self.scalar = all(a.ndim == 0 for a in arrays)
+        check_broadcast(names, arrays)
         bcast = np.broadcast_arrays(*arrays)
         self.shape = bcast[0].shape
         self.names = tuple(names)
@@ -64,6 +65,18 @@ class Broadcast:
             return
         for name, value in zip(self.names, self.flat):
             registry.check_scalar(name, float(value[0]))
+
+
+def check_broadcast(names: Sequence[str], arrays: Sequence[np.ndarray]) -> None:
+    """Raise ``ValueError`` naming the parameters whose shapes do not broadcast together
+    (numpy's own message numbers them as "arg 0", "arg 1" instead)."""
+    try:
+        np.broadcast_shapes(*(np.shape(a) for a in arrays))
+    except ValueError:
+        shapes = ", ".join(f"{n} {np.shape(a)}" for n, a in zip(names, arrays)
+                           if np.ndim(a) > 0)
+        raise ValueError(f"the shapes of {shapes} do not broadcast together (numpy rules)") \
+            from None
 
 
 def broadcast_points(alpha: Any, beta: Any, gamma: Any, gtilde: Any) -> Broadcast:

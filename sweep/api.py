@@ -129,6 +129,9 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
     -------
     IntegrationResult
     """
+    if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
+        # Any truthy object ('no' included) would mean True.
+        raise ValueError(f"parallel must be None, True or False, got {parallel!r}")
     opts = integrator_settings(tol=tol, steps=steps, rest_tol=rest_tol, max_steps=max_steps,
                                refine=refine, device=device)
     device = opts.pop("device")
@@ -144,9 +147,38 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
     return _result_type()(**res)
 
 
-def _undefined_raise(m: registry.Method, b: Broadcast) -> None:
-    raise ValueError(f"method {m.name!r} is not defined at alpha={float(b.flat[0][0])!r}, "
-                     f"beta={float(b.flat[1][0])!r} (see sweep.registry.METHODS)")
+#: Why I(g~), Q(g~) of Prop. 2 have no value at a valid point (:func:`coefficients`).
+_IQ_RANGE = "gtilde is out of the range of I, Q (theta of (43) underflows)"
+#: Methods whose e needs I, Q (and how they are computed): past that range they give none.
+_IQ_METHODS = {"ord2_numint": "numint", "ord2_approx": "approx"}
+
+
+def _undefined_raise(m: registry.Method, b: Broadcast, checked: dict[str, Any]) -> None:
+    """Raise ``ValueError`` for a scalar call the method gives no value at, naming the
+    cause: exponents outside its models, g~ beyond the range of I, Q, or the point."""
+    alpha, beta, gamma, gtilde = (float(x[0]) for x in b.flat)
+    if not m.defined_at(alpha, beta):
+        raise ValueError(f"method {m.name!r} is not defined at alpha={alpha!r}, "
+                         f"beta={beta!r} (see sweep.registry.METHODS)")
+    if m.name in _IQ_METHODS:
+        n = (checked["n"],) if "n" in checked else ()   # ord2_approx's order, if it has one
+        *_, status = _approx.coefficient_arrays(_IQ_METHODS[m.name], *b.flat[:2], b.flat[3],
+                                                *n)
+        if status[0] != Status.OK:
+            raise ValueError(f"method {m.name!r}: {_IQ_RANGE}, got {gtilde!r}")
+    raise ValueError(f"method {m.name!r} gives no finite value at gamma={gamma!r}, "
+                     f"gtilde={gtilde!r} (alpha={alpha!r}, beta={beta!r}): its formula "
+                     "leaves double precision there")
+
+
+def _refuse_unknown(m: registry.Method, options: dict[str, Any]) -> None:
+    """The integration's options are :func:`integrate`'s keywords: refuse any other with
+    the message :meth:`~sweep.registry.Method.check_options` gives, not a TypeError."""
+    allowed = [opt.name for opt in m.options] + ["parallel"]
+    for key in options:
+        if key not in allowed:
+            raise ValueError(f"unknown option {key!r} for method {m.name!r}; "
+                             f"allowed: {', '.join(allowed)}")
 
 
 def cor_fields(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
@@ -163,6 +195,7 @@ def cor_fields(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "nu
     """
     m = registry.method(method)
     if m.integrates:
+        _refuse_unknown(m, options)
         r = integrate(alpha, beta, gamma, gtilde, **options)
         return {f.name: getattr(r, f.name) for f in dataclasses.fields(r)}
     # Validate every option, but pass the kernel only those given: it knows its defaults,
@@ -172,12 +205,10 @@ def cor_fields(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "nu
     e, status, *extra = m.resolve()(*b.flat, **{k: checked[k] for k in options})
     undefined = ~m.defined_at(b.flat[0], b.flat[1])
     if undefined.any():
-        if b.scalar:
-            _undefined_raise(m, b)
         e = np.where(undefined, np.nan, e)
         status = np.where(undefined, np.int8(Status.INVALID), status).astype(np.int8)
     if b.scalar and status[0] == Status.INVALID:
-        _undefined_raise(m, b)
+        _undefined_raise(m, b, checked)
     st = b.restore(status)
     out = {"e": b.restore(e), "status": Status(st) if b.scalar else st}
     out.update({name: b.restore(value) for name, value in (extra[0] if extra else {}).items()})
@@ -229,8 +260,7 @@ def _pair(which: str, names: tuple[str, ...], values: tuple[Any, ...],
     gtilde = b.flat[2] if len(b.flat) > 2 else np.zeros_like(alpha)
     x1, x2, status = _approx.coefficient_arrays(which, alpha, beta, gtilde, n)
     if b.scalar and status[0] != Status.OK:
-        raise ValueError(f"gtilde is out of the range of I, Q (theta of (43) underflows), "
-                         f"got {float(gtilde[0])!r}")
+        raise ValueError(f"{_IQ_RANGE}, got {float(gtilde[0])!r}")
     return b.restore(x1), b.restore(x2)
 
 

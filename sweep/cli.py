@@ -174,7 +174,7 @@ def _cmd_validate(args):
     from sweep.sweeps import config, design, preflight, runner
 
     cfg = config.load(args.config)
-    d = design.build(cfg.design)
+    d = design.build(cfg.design, cfg.source)
     out = cfg.outputs
     pre = runner.preflight(cfg, args.output, args.chunk_size)
     print(f"{args.config}: valid")

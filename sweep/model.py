@@ -11,7 +11,8 @@ is reduced by the scaling (2) to the dimensionless problem::
 so that every downstream computation depends only on ``(alpha, beta, gamma, g~)``.
 
 Owns: the scaling of physical inputs and the array forms of the regime numbers. May import:
-registry, :mod:`sweep.kernels.contact` (the regime formulas live there, once).
+registry, :mod:`sweep._arrays` (broadcasting), :mod:`sweep.kernels.contact` (the regime formulas
+live there, once).
 """
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ import numba as nb
 import numpy as np
 
 from sweep import registry
+from sweep._arrays import check_broadcast
 from sweep.kernels import contact
 from sweep.kernels._jit import kernel_cache
 from sweep.registry import MODELS, Status
@@ -70,29 +72,87 @@ def scale(m, k, gamma0, v0, alpha, beta, g=9.81, F=0.0):
     Returns
     -------
     gamma, gtilde : ndarray or float
-        Dimensionless damping and load (0-d inputs give Python floats).
+        Dimensionless damping and load (0-d inputs give Python floats). A value below the
+        smallest double is 0, which is a valid gamma or g~.
 
     Raises
     ------
     ValueError
-        Naming the first offending argument and value.
+        Naming the first offending argument and value; shapes that do not broadcast,
+        naming the parameters; or inputs, each in its domain, whose gamma, g~ or g + F/m
+        is beyond double precision, naming the quantity and the inputs.
     """
     args = {name: registry.check_array(name, val) for name, val in
             dict(m=m, k=k, gamma0=gamma0, v0=v0, g=g, F=F).items()}
-    a, b = check_exponents(alpha, beta)
-    m_, k_, g0, v0_, g_, F_ = (args[n] for n in ("m", "k", "gamma0", "v0", "g", "F"))
-    load = g_ + F_ / m_
-    if np.any(load < 0):
-        bad = np.broadcast_to(load, np.broadcast(load, m_).shape)
-        raise ValueError("g + F/m must be >= 0 (a compressive load), got "
-                         f"{float(bad[bad < 0].reshape(-1)[0])!r} m/s^2")
-    ap1 = a + 1.0
-    gamma = g0 * v0_ ** (2.0 * b / ap1 - 1.0) * (k_ / m_) ** (1.0 - b / ap1)
-    gtilde = (m_ / k_) ** (1.0 / ap1) * v0_ ** (-2.0 * a / ap1) * load
+    args["alpha"], args["beta"] = check_exponents(alpha, beta)
+    check_broadcast(tuple(args), tuple(args.values()))
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        load = args["g"] + args["F"] / args["m"]
+        _check_load(load, args)
+        gamma, gtilde = _scaled(args, load)
     if np.ndim(gamma) == 0 and np.ndim(gtilde) == 0:
         return float(gamma), float(gtilde)
     gamma, gtilde = np.broadcast_arrays(gamma, gtilde)
     return gamma.copy(), gtilde.copy()
+
+
+#: The inputs each scaled quantity depends on (named when it overflows).
+_DEPENDS = {"g + F/m": ("g", "F", "m"),
+            "gamma": ("gamma0", "v0", "k", "m", "alpha", "beta"),
+            "gtilde": ("m", "k", "v0", "alpha", "g", "F")}
+
+
+def _at(quantity: str, value: np.ndarray, bad: np.ndarray, args: dict) -> tuple[float, str]:
+    """The first bad element of ``value`` and the inputs it comes from, as ``name=value``."""
+    shape = np.shape(value)
+    i = np.flatnonzero(np.broadcast_to(bad, shape).reshape(-1))[0]
+    at = ", ".join(f"{n}={float(np.broadcast_to(args[n], shape).reshape(-1)[i])!r}"
+                   for n in _DEPENDS[quantity])
+    return float(np.reshape(value, -1)[i]), at
+
+
+def _refuse_non_finite(quantity: str, value: np.ndarray, args: dict) -> None:
+    """Raise ``ValueError`` at the first non-finite element of ``value``, naming the inputs
+    it comes from: each is in its domain, their combination is not representable."""
+    bad = ~np.isfinite(value)
+    if bad.any():
+        got, at = _at(quantity, value, bad, args)
+        raise ValueError(f"{quantity} overflows to {got!r} (beyond double precision) at {at}; "
+                         "the scaling (2) of these inputs is out of floating-point range")
+
+
+def _check_load(load: np.ndarray, args: dict) -> None:
+    """g + F/m must be a finite compressive load (>= 0)."""
+    _refuse_non_finite("g + F/m", load, args)
+    if np.any(load < 0):
+        got, at = _at("g + F/m", load, load < 0, args)
+        raise ValueError(f"g + F/m must be >= 0 (a compressive load), got {got!r} m/s^2 "
+                         f"at {at}")
+
+
+def _scaled(args: dict, load: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """gamma and g~ of eq. (2); called under ``np.errstate`` ignoring over- and underflow,
+    which are dealt with here."""
+    m_, k_, g0, v0_, a, b = (args[n] for n in ("m", "k", "gamma0", "v0", "alpha", "beta"))
+    ap1 = a + 1.0
+    gamma = g0 * v0_ ** (2.0 * b / ap1 - 1.0) * (k_ / m_) ** (1.0 - b / ap1)
+    gtilde = (m_ / k_) ** (1.0 / ap1) * v0_ ** (-2.0 * a / ap1) * load
+    # A factor (k/m, v0^p) may overflow or underflow where the product is representable
+    # (m = 1e-300, k = 1e300): there, and only there (elsewhere results stay bit for bit
+    # those of the plain formula), sum the logarithms instead. log 0 = -inf gives 0.
+    redo = ~np.isfinite(gamma) | ((gamma == 0) & (g0 > 0))
+    if np.any(redo):
+        log = (np.log(g0) + (2.0 * b / ap1 - 1.0) * np.log(v0_)
+               + (1.0 - b / ap1) * (np.log(k_) - np.log(m_)))
+        gamma = np.where(redo, np.exp(log), gamma)
+    redo = ~np.isfinite(gtilde) | ((gtilde == 0) & (load > 0))
+    if np.any(redo):
+        log = ((np.log(m_) - np.log(k_)) / ap1 - 2.0 * a / ap1 * np.log(v0_)
+               + np.log(load))
+        gtilde = np.where(redo, np.exp(log), gtilde)
+    _refuse_non_finite("gamma", gamma, args)
+    _refuse_non_finite("gtilde", gtilde, args)
+    return gamma, gtilde
 
 
 def _ufunc(scalar):

@@ -37,7 +37,7 @@ import numpy as np
 
 __all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "MATERIAL",
            "MODELS", "Option", "Method", "METHODS", "Field", "FIELDS", "SERVED_BY",
-           "valid_points", "check_scalar", "check_array", "register_method",
+           "valid_points", "check_scalar", "check_array", "real_array", "register_method",
            "unregister_method", "register_field", "unregister_field", "method",
            "approximations", "composites", "method_fields", "integrator_fields",
            "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX", "DEVICES"]
@@ -200,6 +200,46 @@ def _message(name: str, parameter: Parameter, value: np.ndarray) -> str | None:
     return None
 
 
+def _short(value: Any, width: int = 60) -> str:
+    # One readable line whatever the value holds (a long array, a multi-line repr).
+    text = " ".join(repr(value).split())
+    return text if len(text) <= width else text[:width - 3] + "..."
+
+
+def real_array(name: str, value: Any) -> np.ndarray:
+    """``value`` as float64, if it holds real numbers: Python or numpy ints and floats.
+
+    Strings, bytes, booleans, complex numbers, None and object arrays are refused rather
+    than converted: numpy would parse ``"0.1"``, take ``True`` as 1 and ``None`` as NaN,
+    answering for an input the caller did not mean.
+
+    Parameters
+    ----------
+    name : str
+        The parameter, for the message.
+    value : array_like
+
+    Returns
+    -------
+    ndarray of float64
+
+    Raises
+    ------
+    ValueError
+        One line naming the parameter and the value (and its type).
+    """
+    try:
+        arr = np.asarray(value)       # the caller's own type, judged before any conversion
+    except (TypeError, ValueError):   # ragged nested sequences
+        arr = np.empty(0, dtype=object)
+    if arr.dtype.kind not in "iuf":
+        what = (f"dtype {value.dtype}" if isinstance(value, np.ndarray)
+                else type(value).__name__)
+        raise ValueError(f"{name} must be a real number (int or float) or an array of them, "
+                         f"got {_short(value)} ({what})")
+    return arr.astype(np.float64, copy=False)
+
+
 def check_array(name: str, value: Any, domain: Mapping[str, Parameter] | None = None) -> np.ndarray:
     """Every element of ``value`` must lie in the domain of parameter ``name``.
 
@@ -219,10 +259,7 @@ def check_array(name: str, value: Any, domain: Mapping[str, Parameter] | None = 
         One line naming the parameter and the first offending value.
     """
     parameter = (domain or {**PARAMETERS, **PHYSICAL})[name]
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a real number or array of them, got {value!r}") from None
+    arr = real_array(name, value)
     message = _message(name, parameter, arr)
     if message:
         raise ValueError(message)

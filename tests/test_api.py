@@ -114,3 +114,92 @@ def test_sticks_is_e_zero_for_decided_points():
     np.testing.assert_array_equal(r.sticks[decided], r.e[decided] == 0.0)
     assert np.all(r.e[r.status == Status.OK] > 0)
     assert np.all((r.e >= 0) & (r.e <= 1))
+
+
+# --------------------------------------------------------------------------- argument types
+
+@pytest.mark.parametrize("value, shown", [
+    ("0.1", "'0.1'"), ("abc", "'abc'"), (b"0.1", "b'0.1'"), (True, "True"),
+    (np.bool_(False), "False"), (np.array([True, False]), "dtype bool"),
+    (0.1 + 1j, "(0.1+1j)"), (None, "None"), ([0.1, None], "[0.1, None]"),
+    (np.array([0.1], dtype=object), "dtype object"), ([0.1, "0.2"], "'0.2'"),
+])
+@pytest.mark.parametrize("method", ["numeric", "ord1"])
+def test_non_numbers_are_refused_naming_parameter_and_value(value, shown, method):
+    # numpy would parse "0.1", read True as 1 and None as NaN: each must be refused instead,
+    # in one line naming the parameter (gamma here) and what was given.
+    with pytest.raises(ValueError, match="gamma must be a real number") as info:
+        sweep.cor(1.5, 1.5, value, 1.0, method=method)
+    assert shown in str(info.value) and "\n" not in str(info.value)
+    with pytest.raises(ValueError, match="gtilde must be a real number"):
+        sweep.integrate(1.5, 1.5, 0.1, value)
+    with pytest.raises(ValueError, match="alpha must be a real number"):
+        sweep.coefficients(value, 1.5, 1.0)
+
+
+def test_ints_and_numpy_numbers_are_numbers():
+    # KK at gamma = 0 rebounds elastically: e = 1 whatever the integer or numpy type.
+    assert sweep.cor(1, 1, 0, 1) == pytest.approx(1.0, abs=1e-9)
+    e = sweep.cor(np.int32(3) / 2, np.float32(1.5), np.array([0, 0], dtype=np.int64),
+                  np.uint8(1))
+    np.testing.assert_allclose(e, [1.0, 1.0], atol=1e-9)
+
+
+@pytest.mark.parametrize("parallel", ["no", 1, 0, "False", [True]])
+def test_parallel_must_be_none_or_a_bool(parallel):
+    with pytest.raises(ValueError, match=f"parallel must be None, True or False, got "
+                                         f"{parallel!r}".replace("[", r"\[")):
+        sweep.integrate(1.5, 1.5, [0.1, 0.2], 1.0, parallel=parallel)
+    with pytest.raises(ValueError, match="parallel must be"):
+        sweep.cor(1.5, 1.5, [0.1, 0.2], 1.0, parallel=parallel)
+
+
+def test_parallel_accepts_none_and_bools():
+    want = sweep.integrate(1.5, 1.5, [0.1, 0.2], 1.0, steps=24).e
+    for parallel in (None, True, False, np.bool_(True)):
+        got = sweep.integrate(1.5, 1.5, [0.1, 0.2], 1.0, steps=24, parallel=parallel).e
+        np.testing.assert_array_equal(got, want)
+
+
+def test_unknown_option_of_the_integration_is_named_like_the_approximations():
+    with pytest.raises(ValueError, match=r"^unknown option 'stepz' for method 'numeric'; "
+                                         r"allowed: tol, steps, .*, parallel$"):
+        sweep.cor(1.5, 1.5, 0.1, 1.0, stepz=3)
+    with pytest.raises(ValueError, match=r"^unknown option 'stepz' for method 'ord1'"):
+        sweep.cor(1.5, 1.5, 0.1, 1.0, method="ord1", stepz=3)
+
+
+def test_shapes_that_do_not_broadcast_are_named():
+    with pytest.raises(ValueError, match=r"^the shapes of gamma \(2,\), gtilde \(3,\) do not "
+                                         r"broadcast together"):
+        sweep.cor(1.5, 1.5, [0.1, 0.2], [1.0, 2.0, 3.0])
+
+
+# --------------------------------------------------------------------------- undefined points
+
+@pytest.mark.parametrize("method", ["ord2_numint", "ord2_approx"])
+def test_ord2_beyond_the_range_of_i_q_names_gtilde(method):
+    # The method is defined at KK; g~ = 1e300 is past the range of I, Q of Prop. 2 (theta
+    # of (43) underflows), so the error must blame g~, as sweep.coefficients does.
+    with pytest.raises(ValueError) as info:
+        sweep.cor(1.5, 1.5, 0.1, 1e300, method=method)
+    msg = str(info.value)
+    assert "gtilde is out of the range of I, Q" in msg and "1e+300" in msg
+    assert "alpha" not in msg
+    with pytest.raises(ValueError, match=r"out of the range of I, Q .*1e\+300"):
+        sweep.coefficients(1.5, 1.5, 1e300)
+
+
+def test_undefined_exponents_still_name_alpha_and_beta():
+    with pytest.raises(ValueError, match=r"method 'sp' is not defined at alpha=2.0, beta=1.5"):
+        sweep.cor(2.0, 1.5, 0.1, 1.0, method="sp")
+
+
+def test_overflowing_formula_names_the_point_not_the_exponents():
+    # gamma^2 of (25) overflows at gamma = 1.7e308 (inf - inf): sp is defined at KK, and
+    # g~ = 1 is well inside the range of I, Q, so neither may be blamed.
+    for method in ("sp", "ord2_numint"):
+        with pytest.raises(ValueError) as info:
+            sweep.cor(1.5, 1.5, 1.7e308, 1.0, method=method)
+        msg = str(info.value)
+        assert "gamma=1.7e+308" in msg and "not defined" not in msg and "range of I" not in msg

@@ -183,3 +183,36 @@ def test_kill_9_then_rerun_resumes_to_the_uninterrupted_result(tmp_path):
         for name in ("e_numeric", "status", "n_steps", "gamma"):
             np.testing.assert_array_equal(a[name].values, b[name].values)
         assert a.attrs["sweep_config"] == b.attrs["sweep_config"] == text
+
+
+@pytest.mark.parametrize("output, expected", [
+    (".", ". is a directory; give the output .nc file name with -o"),
+    ("", "the output file name is empty"),
+    ("/", "/ is a directory"),
+    ("nowhere/..", "nowhere/.. names a directory, not a file"),
+])
+def test_an_output_that_names_no_file_is_one_clear_line(cfg, tmp_path, capsys, monkeypatch,
+                                                        output, expected):
+    # These used to end in "unexpected ValueError: PosixPath('.') has an empty name".
+    monkeypatch.chdir(tmp_path)
+    for command in ("run", "validate"):
+        extra = ["--quiet"] if command == "run" else ["--no-estimate"]
+        assert cli.main([command, str(cfg), "-o", output] + extra) == 1
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and "unexpected" not in err, err
+        assert expected in err and err.startswith(f"sweep {command}: error: "), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.toml"]
+
+
+def test_a_scene_whose_scaling_overflows_fails_validate_and_run(tmp_path, capsys):
+    scene = tmp_path / "s.toml"
+    scene.write_text('[design]\nkind = "scene"\nv0 = [1e-300]\nF = [0.0, 1.0]\n'
+                     '[design.materials.m1]\nlaw = "kk"\nm = 0.154\nk = 3.6138e10\n'
+                     'gamma0 = 1.5237e-6\n[outputs]\ne = ["numeric"]\nfields = ["status"]\n')
+    for argv in (["validate", str(scene)], ["run", str(scene), "-o", str(tmp_path / "s.nc")]):
+        assert cli.main(argv) == 1
+        captured = capsys.readouterr()
+        err = captured.err.strip()
+        assert len(err.splitlines()) == 1 and "RuntimeWarning" not in err, err
+        assert f"{scene}: design.materials.m1: gtilde overflows" in err
+    assert not (tmp_path / "s.nc").exists()

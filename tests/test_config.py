@@ -1,4 +1,5 @@
 """Configuration parsing and validation (sweep.sweeps.config)."""
+import math
 from pathlib import Path
 
 import numpy as np
@@ -347,3 +348,81 @@ def test_dict_configurations_are_written_as_toml_that_reads_back():
     cfg = config.from_dict(tomllib.loads(GRID))
     assert cfg.sha256 == config.loads(GRID).sha256 and cfg.title == "t"
     assert config.as_config(GRID).sha256 == cfg.sha256
+
+
+# --------------------------------------------------------------------------- scene materials
+
+GLASS = """
+[design]
+kind = "scene"
+v0 = 1.0
+F = 0.0
+[design.materials.glass]
+law = "kk"
+radius = 1e-3
+density = 2500.0
+E = 63e9
+nu = 0.22
+floor = {E = 63e9, nu = 0.22}
+damping = {model = "target_e", e = 0.97, v0 = 1.0}
+[outputs]
+e = ["numeric"]
+"""
+
+
+@pytest.mark.parametrize("floor, message", [
+    ("floor = {E = 63e9}", "floor.nu: is required with floor.E"),
+    ("floor = {nu = 0.22}", "floor.E: is required with floor.nu"),
+])
+def test_floor_needs_both_e_and_nu(floor, message):
+    # One key alone used to default the other (nu = 0, or a rigid floor) silently.
+    with pytest.raises(ConfigError, match=r"^g.toml: design.materials.glass." + message):
+        config.loads(GLASS.replace("floor = {E = 63e9, nu = 0.22}", floor), source="g.toml")
+
+
+def test_floor_omitted_is_rigid_and_given_whole_is_read():
+    rigid = config.loads(GLASS.replace("floor = {E = 63e9, nu = 0.22}\n", ""))
+    assert rigid.design.materials[0].floor_E == math.inf
+    glass = config.loads(GLASS).design.materials[0]
+    assert (glass.floor_E, glass.floor_nu) == (63e9, 0.22)
+
+
+DIRECT = ("radius = 1e-3\ndensity = 2500.0\nE = 63e9\nnu = 0.22\nfloor = {E = 63e9, nu = 0.22}\n"
+          'damping = {model = "target_e", e = 0.97, v0 = 1.0}\n')
+
+
+@pytest.mark.parametrize("replacement, key, why", [
+    # m, k, gamma0 given: E, nu and radius derive nothing
+    ("m = 0.1\nk = 1e9\ngamma0 = 1e-6\nE = 63e9\n", "E", "k is given directly"),
+    ("m = 0.1\nk = 1e9\ngamma0 = 1e-6\nnu = 0.22\n", "nu", "k is given directly"),
+    ("m = 0.1\nk = 1e9\ngamma0 = 1e-6\nradius = 1e-3\n", "radius", "m and k are given"),
+    # k given, m from radius and density: radius is used, E is not
+    ("radius = 1e-3\ndensity = 2500.0\nk = 1e9\ngamma0 = 1e-6\nE = 63e9\n", "E",
+     "k is given directly"),
+])
+def test_material_keys_that_derive_nothing_are_refused(replacement, key, why):
+    with pytest.raises(ConfigError, match=rf"^design.materials.glass.{key}: is ignored: {why}"):
+        config.loads(GLASS.replace(DIRECT, replacement))
+
+
+def test_material_keys_used_by_some_formula_are_accepted():
+    # m from radius and density, k from Hertz: every key is used
+    assert config.loads(GLASS).design.materials[0].k is None
+    # k given, but the Kuwabara-Kono damping needs the bead's E and nu
+    kk = config.loads(GLASS.replace(DIRECT, "m = 0.1\nk = 1e9\nE = 63e9\nnu = 0.22\ndamping = "
+                                            "{model = \"kuwabara_kono\", eta1 = 1.0, "
+                                            "eta2 = 2.0}\n"))
+    assert kk.design.materials[0].E == 63e9
+    # m given, k from Hertz (radius, E, nu): radius is used
+    assert config.loads(GLASS.replace("density = 2500.0", "m = 0.1")).design.materials[0].m \
+        == 0.1
+
+
+def test_kuwabara_kono_domain_errors_name_the_file():
+    kk = GLASS.replace('damping = {model = "target_e", e = 0.97, v0 = 1.0}',
+                       'damping = {model = "kuwabara_kono", eta1 = 0.0, eta2 = 0.0}')
+    with pytest.raises(ConfigError, match=r"^g.toml: design.materials.glass.damping.eta2: "
+                                          r"eta1 \+ eta2 must be > 0"):
+        config.loads(kk, source="g.toml")
+    with pytest.raises(ConfigError, match=r"^g.toml: design.materials.glass.nu: must be != 0"):
+        config.loads(kk.replace("nu = 0.22\nfloor", "nu = 0.0\nfloor"), source="g.toml")

@@ -1,4 +1,6 @@
 """Scaling (2) and validation of physical inputs."""
+import warnings
+
 import numpy as np
 import pytest
 
@@ -58,3 +60,62 @@ def test_regime_numbers():
     assert natural_frequency(1.0, 3.0) == pytest.approx(1.0)
     # Linear spring-dashpot: xi = gamma / 2 whatever the load.
     assert damping_ratio(1.0, 1.0, 0.3, 5.0) == pytest.approx(0.15)
+
+
+KK = dict(alpha=1.5, beta=1.5)
+
+
+@pytest.mark.parametrize("kwargs, quantity, named", [
+    # g~ = (m/k)^(2/5) v0^(-6/5) (g + F/m): v0^(-6/5) = 1e360 at v0 = 1e-300.
+    (dict(m=0.154, k=3.6138e10, gamma0=1.5237e-6, v0=1e-300), "gtilde", "v0=1e-300"),
+    # gamma = gamma0 v0^(1/5) (k/m)^(2/5) = 1e300 * (1e300)^(2/5) = 1e420.
+    (dict(m=1.0, k=1e300, gamma0=1e300, v0=1.0), "gamma", "gamma0=1e+300"),
+    # g + F/m = 1e308 + 1e308 / 0.154 > the largest double.
+    (dict(m=0.154, k=3.6138e10, gamma0=1e-6, v0=1.0, g=1e308, F=1e308), "g + F/m",
+     "F=1e+308"),
+])
+def test_scale_refuses_a_result_beyond_double_precision(kwargs, quantity, named):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")        # no numpy RuntimeWarning may leak either
+        with pytest.raises(ValueError) as info:
+            sweep.scale(**kwargs, **KK)
+    msg = str(info.value)
+    assert msg.startswith(f"{quantity} overflows to inf") and named in msg
+    assert "\n" not in msg
+    # inside an array too, naming the element's own values
+    args = {**kwargs, "v0": np.array([1.0, kwargs["v0"]])}
+    with pytest.raises(ValueError, match=quantity.replace("+", r"\+") + " overflows"):
+        sweep.scale(**args, **KK)
+
+
+def test_scale_is_exact_where_only_an_intermediate_leaves_double_range():
+    # m = 1e-300, k = 1e300: k/m = 1e600 overflows, m/k = 1e-600 underflows, yet
+    # gamma = 1e-6 (1e600)^(2/5) = 1e234 and g~ = (1e-600)^(2/5) 9.81 = 9.81e-240 are doubles.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        gamma, gtilde = sweep.scale(m=1e-300, k=1e300, gamma0=1e-6, v0=1.0, **KK)
+    assert gamma == pytest.approx(1e234, rel=1e-12)
+    assert gtilde == pytest.approx(9.81e-240, rel=1e-12)
+
+
+def test_scale_underflow_to_zero_is_a_valid_result():
+    # g~ = (m/k)^(2/5) v0^(-6/5) g ~ 1e-365 at v0 = 1e300: below the smallest double, 0,
+    # which is a valid g~ (no load to speak of); gamma = 1e-6 * 1e60 * (2.3e11)^(2/5).
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        gamma, gtilde = sweep.scale(m=0.154, k=3.6138e10, gamma0=1e-6, v0=1e300, **KK)
+    assert gtilde == 0.0
+    assert gamma == pytest.approx(1e-6 * 1e60 * (3.6138e10 / 0.154) ** 0.4, rel=1e-12)
+
+
+def test_scale_names_parameters_whose_shapes_do_not_broadcast():
+    with pytest.raises(ValueError, match=r"^the shapes of m \(2,\), v0 \(3,\) do not "
+                                         r"broadcast together"):
+        sweep.scale(np.array([0.1, 0.2]), 1e9, 1e-6, np.array([1.0, 2.0, 3.0]), 1.5, 1.5)
+
+
+@pytest.mark.parametrize("value", ["0.154", True, None, 0.154 + 0j])
+def test_scale_refuses_non_numbers_naming_them(value):
+    with pytest.raises(ValueError, match=r"^m must be a real number .*got " + repr(value)
+                       .replace("(", r"\(").replace(")", r"\)").replace("+", r"\+")):
+        sweep.scale(value, 3.6138e10, 1.5237e-6, 1.0, 1.5, 1.5)

@@ -209,3 +209,49 @@ def test_scene_with_auto_resumes_to_the_uninterrupted_result(tmp_path, monkeypat
         assert np.all(np.abs(b.e_auto - b.e_numeric) <= 1e-3)
         assert b.method_used.attrs["flag_meanings"].split()[0] == "numeric"
         assert b.attrs["options_auto_tol"] == 1e-3 and b.attrs["options_auto_steps"] == 48
+
+
+def _one_material(speeds, **material):
+    props = "\n".join(f"{k} = {v!r}" for k, v in material.items())
+    return (f'[design]\nkind = "scene"\nv0 = {speeds!r}\nF = [0.0, 1.0]\n'
+            f'[design.materials.tiny]\nlaw = "kk"\n{props}\n[outputs]\ne = ["numeric"]\n'
+            'fields = ["status"]\n')
+
+
+def test_a_scene_whose_scaling_overflows_is_a_config_error(tmp_path):
+    # g~ = (m/k)^(2/5) v0^(-6/5) (g + F/m) is 1e360 at v0 = 1e-300, the second speed: every
+    # point would be INVALID (NaN). The error names the file, the material and the value.
+    text = _one_material([1.0, 1e-300], m=0.154, k=3.6138e10, gamma0=1.5237e-6)
+    cfg = config.loads(text, source="s.toml")
+    with pytest.raises(config.ConfigError, match=r"^s.toml: design.materials.tiny: gtilde "
+                                                 r"overflows to inf .*v0=1e-300"):
+        design.build(cfg.design, cfg.source)
+    with pytest.raises(config.ConfigError, match=r"^s.toml: design.materials.tiny: gtilde"):
+        runner.run(cfg, tmp_path / "s.nc", quiet=True)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_scene_with_extreme_but_representable_scaling_runs():
+    # m = 1e-300, k = 1e300: k/m overflows, but gamma = 1e-6 (1e600)^(2/5) = 1e234 and
+    # g~ = (1e-600)^(2/5) (g + F/m) are doubles: every point is valid.
+    d = design.build(config.loads(_one_material([1.0], m=1e-300, k=1e300, gamma0=1e-6))
+                     .design)
+    _, _, gamma, gtilde = d.points(0, d.size)
+    np.testing.assert_allclose(gamma, [1e234, 1e234], rtol=1e-12)
+    np.testing.assert_allclose(gtilde, [9.81e-240, 1e-240 * (9.81 + 1e300)], rtol=1e-12)
+
+
+def test_errors_found_when_the_design_is_built_name_the_file(tmp_path):
+    pulling = SCENE.replace("F = [0.0, 1.0]", "F = [-2.0, 1.0]")
+    with pytest.raises(config.ConfigError, match=r"^scene.toml: design.materials.steel: "
+                                                 r"g \+ F/m must be >= 0"):
+        design.build(config.loads(pulling, source="scene.toml").design, "scene.toml")
+    kk = PROPERTIES.replace('damping = {model = "target_e", e = 0.97, v0 = 1.0}',
+                            'damping = {model = "kuwabara_kono", eta1 = 1.0, eta2 = 2.0}')
+    with pytest.raises(config.ConfigError, match=r"^p.toml: design.materials.glass.nu: must "
+                                                 r"be != 0 for the kuwabara_kono damping"):
+        config.loads(kk.replace("nu = 0.22\nfloor", "nu = 0.0\nfloor"), source="p.toml")
+    path = tmp_path / "pull.toml"
+    path.write_text(pulling)
+    with pytest.raises(config.ConfigError, match=f"^{path}: design.materials.steel: g"):
+        runner.run(path, tmp_path / "out.nc", quiet=True)

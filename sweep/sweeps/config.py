@@ -47,7 +47,7 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     density = 2500.0               # [kg/m^3]
     E = 63e9                       # Young's modulus [Pa]
     nu = 0.22                      # Poisson's ratio
-    floor = {E = 63e9, nu = 0.22}  # the floor's (omitted: rigid)
+    floor = {E = 63e9, nu = 0.22}  # the floor's, both (omitted: rigid)
     damping = {model = "target_e", e = 0.97, v0 = 1.0}   # numerical e at v0 [m/s], g, F = 0
     # or {model = "tsuji", e = 0.9} (law "tti") or {model = "kuwabara_kono", eta1 = .., eta2 = ..}
 
@@ -586,7 +586,20 @@ def _scene_damping(tab, law):
                            f"{law}", model)
     if model == "kuwabara_kono" and not (tab.has("E") and tab.has("nu")):
         sub.error("model", "kuwabara_kono needs the bead's E and nu in the material", model)
+    if model == "kuwabara_kono":
+        _kuwabara_kono_domain(tab, sub, params)
     return None, (("model", model),) + tuple(sorted(params.items()))
+
+
+def _kuwabara_kono_domain(tab, sub, params):
+    # Checked here, not only by sweep.materials when the design is built, so that the
+    # error names the file and key as every other configuration error does.
+    if tab.data["nu"] == 0:
+        tab.error("nu", "must be != 0 for the kuwabara_kono damping (its constant divides "
+                        "by nu^2)", tab.data["nu"])
+    if params["eta1"] + params["eta2"] == 0:
+        sub.error("eta2", "eta1 + eta2 must be > 0 for the kuwabara_kono damping",
+                  params["eta2"])
 
 
 def _parse_material(tab, name):
@@ -598,14 +611,43 @@ def _parse_material(tab, name):
     props = {key: _physical(tab, key, None) for key in ("m", "k") + _MATERIAL_KEYS}
     if props["k"] is None and alpha != 1.5:
         tab.error("E", "Hertz stiffness (from radius, E, nu) needs alpha = 1.5", alpha)
-    floor = tab.table("floor")
-    floor.expect(("E", "nu"))
-    floor_E, floor_nu = _physical(floor, "E", math.inf), _physical(floor, "nu", 0.0)
-    floor.finish()
+    floor_E, floor_nu = _scene_floor(tab.table("floor"))
     gamma0, damping = _scene_damping(tab, (alpha, beta))
+    _refuse_unused(tab, props, dict(damping).get("model"))
     tab.finish()
     return MaterialSpec(name=name, alpha=alpha, beta=beta, gamma0=gamma0, floor_E=floor_E,
                         floor_nu=floor_nu, damping=damping, **props)
+
+
+def _scene_floor(floor):
+    """The floor's (E, nu): both, or neither for a rigid floor (E = inf)."""
+    floor.expect(("E", "nu"))
+    if not (floor.has("E") or floor.has("nu")):
+        return math.inf, 0.0
+    for key, other in (("E", "nu"), ("nu", "E")):
+        if not floor.has(key):
+            # Hertz needs both; a default for one (nu = 0, or a rigid floor) would be a
+            # silent guess about the other's material.
+            floor.missing(key, f"is required with floor.{other} (the floor's Young's modulus "
+                               "and Poisson's ratio, both; omit floor for a rigid one)")
+    floor_E, floor_nu = _physical(floor, "E"), _physical(floor, "nu")
+    floor.finish()
+    return floor_E, floor_nu
+
+
+def _refuse_unused(tab, props, damping_model):
+    """Refuse a material property that derives nothing here: radius derives m (with
+    density) or k (Hertz); E and nu derive k, or the kuwabara_kono damping."""
+    derives = {"radius": ("m", "k") if props["m"] is None or props["k"] is None else (),
+               "E": ("k",) if props["k"] is None else (), "nu": ()}
+    if damping_model == "kuwabara_kono":
+        derives["E"] = derives["nu"] = ("gamma0",)
+    derives["nu"] = derives["nu"] or derives["E"]
+    for key, used_for in derives.items():
+        if tab.has(key) and not used_for:
+            given = "m and k are" if key == "radius" else "k is"
+            tab.error(key, f"is ignored: {given} given directly, and nothing else here uses "
+                           f"{key} (remove it)")
 
 
 def _scene_axis(design, name):

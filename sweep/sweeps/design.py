@@ -385,17 +385,18 @@ class SceneDesign(Design):
         self._props = {name: np.array([getattr(m, name) for m in self.materials])
                        for name in self.MATERIAL_VARIABLES}
         for mat in self.materials:
-            self._check_loads(mat)
+            self._check_scaling(mat)
 
-    def _check_loads(self, mat):
-        # g + F/m >= 0 at every load (scale names the value); v0 does not enter the check.
+    def _check_scaling(self, mat):
+        # g + F/m >= 0 at every load, and gamma, g~ doubles at every point (or every point
+        # would be INVALID); scale names the values. gamma and g~ are powers of v0 times a
+        # factor increasing with F: their extremes lie at the extreme speeds.
+        v0 = np.array([self._v0.min(), self._v0.max()])[:, None]
         try:
-            model.scale(mat.m, mat.k, mat.gamma0, self._v0[0], mat.alpha, mat.beta,
-                        self.spec.g, self._F)
+            model.scale(mat.m, mat.k, mat.gamma0, v0, mat.alpha, mat.beta, self.spec.g,
+                        self._F)
         except ValueError as exc:
-            raise ConfigError(f"design.materials.{mat.name}: {exc} (m = {mat.m:.6g} kg, "
-                              f"g = {self.spec.g:g} m/s^2, F from {self._F.min():g} N)") \
-                from None
+            raise ConfigError(f"design.materials.{mat.name}: {exc}") from None
 
     @property
     def axes(self):
@@ -451,10 +452,30 @@ BUILDERS = {
 }
 
 
-def build(spec):
-    """Build the design object of a validated design spec (``Config.design``)."""
+def build(spec, source=""):
+    """Build the design object of a validated design spec (``Config.design``).
+
+    Parameters
+    ----------
+    spec : GridSpec, DoESpec or SceneSpec
+    source : str, optional
+        The configuration's file (``Config.source``), prefixed to errors as the parser
+        prefixes its own.
+
+    Raises
+    ------
+    ConfigError
+        A value the builder refuses (a scene whose loads pull, or whose scaling leaves
+        double precision), naming the material and the value.
+    """
     try:
         builder = BUILDERS[spec.kind]
     except KeyError:
         raise ValueError(f"no design builder for design.kind {spec.kind!r}") from None
-    return builder(spec)
+    try:
+        return builder(spec)
+    except ConfigError as exc:
+        # A builder names the key (design.materials.NAME); the file, as the parser does.
+        if not source:
+            raise
+        raise ConfigError(f"{source}: {exc}") from None

@@ -544,8 +544,21 @@ class _Totals:
         self.kernel += kernel
 
 
+def _output_path(output):
+    """The output as a Path; an empty name is refused (``Path("")`` would be ".")."""
+    if isinstance(output, (str, bytes)) and not output.strip():
+        raise RunError(f"the output file name is empty ({output!r}); give a netCDF file "
+                       "name with -o, e.g. -o out.nc")
+    return Path(os.fsdecode(output))
+
+
 def _check_output_path(output):
     """Refuse, before anything is computed, an output the run could not publish."""
+    if output.name in ("", ".", ".."):
+        # "." or "/" (with_suffix below would raise on them): say what is wrong instead.
+        what = "is a directory" if output.is_dir() else "names a directory, not a file"
+        raise RunError(f"{output} {what}; give the output .nc file name with -o, e.g. "
+                       f"-o {output / 'out.nc'}")
     if output.suffix.lower() not in store.SUFFIXES:
         raise RunError(
             f"{output}: unknown output format {output.suffix or '(no suffix)'!r}; sweep "
@@ -581,13 +594,13 @@ def _prepare(cfg, output, chunk_size, quiet, log, in_memory=False):
     if in_memory:
         output = None
     else:
-        output = Path(output) if output is not None else default_output(cfg)
+        output = _output_path(output) if output is not None else default_output(cfg)
         _check_output_path(output)
     if chunk_size is None:
         chunk_size = cfg.chunk_size
     elif isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         raise RunError(f"chunk size must be an integer >= 1, got {chunk_size!r}")
-    design = _design.build(cfg.design)
+    design = _design.build(cfg.design, cfg.source)
     job = _Job(cfg=cfg, design=design, plan=ComputePlan.from_config(cfg),
                layout=design.layout(), output=output, chunk_size=int(chunk_size), log=log,
                result=RunResult(output=output, n_points=design.size))
