@@ -9,7 +9,8 @@ the configuration parser, the store and the reports read it from here:
   :func:`check_scalar` and :func:`check_array` to apply it;
 * :data:`PHYSICAL` -- the physical inputs of the scaling (2) and their domain;
 * :data:`MATERIAL` -- the properties a scene may derive them from (Hertz stiffness, mass,
-  damping models: :mod:`sweep.materials`) and their domain;
+  damping models: :mod:`sweep.materials`) and their domain; :data:`MATERIAL_NAME`, the
+  variable of a scene dataset that names its materials;
 * :data:`MODELS` -- the report's named contact laws (alpha, beta);
 * :data:`METHODS` -- every way of computing the CoR: name, kernel, options, long name,
   equation, domain (:func:`register_method` adds one);
@@ -36,8 +37,9 @@ from typing import Any
 import numpy as np
 
 __all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "MATERIAL",
-           "MODELS", "Option", "Method", "METHODS", "Field", "FIELDS", "SERVED_BY",
-           "valid_points", "check_scalar", "check_array", "real_array", "register_method",
+           "MATERIAL_NAME", "MODELS", "Option", "Method", "METHODS", "Field", "FIELDS",
+           "SERVED_BY", "valid_points", "check_scalar", "check_array", "real_array",
+           "register_method",
            "unregister_method", "register_field", "unregister_field", "method",
            "approximations", "composites", "method_fields", "integrator_fields",
            "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX", "DEVICES"]
@@ -88,9 +90,14 @@ class Parameter:
     rule : str
         The domain in words, for error messages ("must be ...").
     units : str
-        CF units.
+        CF units (a UDUNITS string); for a unit that depends on the contact law, its rule
+        in words (``"N m^-alpha"``), which no file stores (see ``law_units``).
     maximum : float
         Upper bound of the domain (included; inf: none).
+    law_units : tuple
+        For a unit that depends on the contact law (k, gamma0): the unit without its
+        length factor and the power of the metre per unit alpha and per unit beta, e.g.
+        ``("N", -1, 0)`` for N m^-alpha; empty for a fixed unit. See :meth:`cf_units`.
     """
 
     name: str
@@ -101,12 +108,38 @@ class Parameter:
     rule: str = ""
     units: str = "1"
     maximum: float = math.inf
+    law_units: tuple = ()
 
     def ok(self, value: Any) -> Any:
         """Elementwise: inside the domain (finite and between the bounds)."""
         x = np.asarray(value, dtype=np.float64)
         above = x > self.minimum if self.strict else x >= self.minimum
         return np.isfinite(x) & above & (x <= self.maximum)
+
+    def cf_units(self, alpha: float = 1.0, beta: float = 1.0) -> str | None:
+        """The units as a UDUNITS string, under the contact law (alpha, beta).
+
+        Parameters
+        ----------
+        alpha, beta : float
+            Exponents of the law (1); they matter only for a law-dependent unit.
+
+        Returns
+        -------
+        str or None
+            :attr:`units` for a fixed unit; for a law-dependent one, e.g. ``"N m-1"`` for
+            k at alpha = 1, or None where the power of the metre is not an integer.
+            UDUNITS (hence CF) has integer powers only: it reads ``"N m-1.5"`` as the
+            valid but different unit 0.5 N m-1, so no string can say N m^-1.5.
+        """
+        if not self.law_units:
+            return self.units
+        base, per_alpha, per_beta = self.law_units
+        power = per_alpha * float(alpha) + per_beta * float(beta)
+        if not power.is_integer():
+            return None
+        power = int(power)
+        return base if power == 0 else f"{base} m" if power == 1 else f"{base} m{power}"
 
 
 _UNIQUENESS = ">= 1 (uniqueness is not known below 1)"
@@ -134,10 +167,11 @@ PHYSICAL: dict[str, Parameter] = {p.name: p for p in (
     Parameter("m", "bead mass", "mass m of the bead, report eq. (1)", 0.0, True,
               "> 0 [kg]", "kg"),
     Parameter("k", "contact stiffness", "stiffness k of the contact law, report eq. (1)",
-              0.0, True, "> 0 [N m^-alpha]", "N m-alpha"),
+              0.0, True, "> 0 [N m^-alpha]", "N m^-alpha", law_units=("N", -1, 0)),
     Parameter("gamma0", "damping coefficient",
               "gamma0 of the damping force k gamma0 d/dt (-x)_+^beta, report eq. (1)",
-              0.0, False, ">= 0 [s m^(alpha-beta)]", "s m(alpha-beta)"),
+              0.0, False, ">= 0 [s m^(alpha-beta)]", "s m^(alpha-beta)",
+              law_units=("s", 1, -1)),
     Parameter("v0", "impact speed", "speed of the bead when it touches the floor", 0.0, True,
               "> 0 [m/s]", "m s-1"),
     Parameter("g", "gravitational acceleration", "acceleration of gravity", -math.inf, False,
@@ -167,6 +201,11 @@ MATERIAL: dict[str, Parameter] = {p.name: p for p in (
               "viscous constant eta2 of the bead material (Brilliantov et al. 1996)", 0.0,
               False, ">= 0 [Pa s]", "Pa s"),
 )}
+
+#: Name of the variable that names a scene's materials in its dataset: a string auxiliary
+#: coordinate on the ``material`` dimension, which an integer 0..n-1 indexes (a CF
+#: coordinate variable is numeric). Every reader of scene datasets takes the names from it.
+MATERIAL_NAME = "material_name"
 
 #: The report's named contact laws: name -> (alpha, beta) (report Table 1).
 MODELS: dict[str, tuple[float, float]] = {

@@ -1,7 +1,8 @@
 """Lookup tables of the CoR for simulation codes: a scene's e(v0, F) interpolated and exported.
 
 A scene dataset (``sweep run`` of a ``design.kind = "scene"`` configuration) holds e on the
-grid (material, v0, F), with each material's m, k, gamma0, alpha, beta and the scene's g.
+grid (material, v0, F), with each material's m, k, gamma0, alpha, beta, its name
+(:data:`sweep.registry.MATERIAL_NAME`; ``material`` is an index) and the scene's g.
 :class:`Table` interpolates it:
 
 * along v0 and along F by monotone piecewise-cubic Hermite interpolation (PCHIP, Fritsch &
@@ -56,6 +57,24 @@ def _open(dataset: Any) -> Any:
     return dataset
 
 
+def _material_names(ds: Any) -> list[str]:
+    """The materials' names: the auxiliary coordinate ``material_name``, or the
+    ``material`` coordinate itself in files written before it (which held the names)."""
+    names = ds[registry.MATERIAL_NAME] if registry.MATERIAL_NAME in ds.variables \
+        else ds["material"]
+    return [str(m) for m in names.values]
+
+
+def _unit(ds: Any, name: str) -> str:
+    """The unit of a variable as the export states it: its ``units`` attribute; for k or
+    gamma0 without one (a power of the metre UDUNITS cannot say), the rule of the
+    registry (``"N m^-alpha"``, the exponents being in the export); "1" otherwise."""
+    if "units" in ds[name].attrs:
+        return str(ds[name].attrs["units"])
+    p = registry.PHYSICAL.get(name)
+    return p.units if p is not None and p.law_units else "1"
+
+
 def _default_variable(ds: Any) -> str:
     for name in ("e_numeric", "e_auto"):
         if name in ds:
@@ -104,7 +123,7 @@ class Table:
             raise ValueError(f"the dataset has no variable {self.variable!r}")
         ds = ds.sortby(["v0", "F"])  # axes given as lists need not be increasing
         self.values = ds[self.variable].transpose(*SCENE_DIMS).values.astype(np.float64)
-        self.materials = [str(m) for m in ds["material"].values]
+        self.materials = _material_names(ds)
         self.v0 = ds["v0"].values.astype(np.float64)
         self.F = ds["F"].values.astype(np.float64)
         self.log = {axis: ds[axis].attrs.get("spacing") == "log" for axis in ("v0", "F")}
@@ -273,7 +292,7 @@ def _long_rows(ds: Any, variables: list[str]) -> tuple[list[str], list[list[Any]
     columns = ["material", "v0 [m/s]", "F [N]"] + [f"{v} [1]" for v in variables]
     arrays = [ds[v].transpose(*SCENE_DIMS).values for v in variables]
     rows = []
-    for i, name in enumerate(ds["material"].values):
+    for i, name in enumerate(_material_names(ds)):
         for j, v0 in enumerate(ds["v0"].values):
             for k, F in enumerate(ds["F"].values):
                 rows.append([str(name), repr(float(v0)), repr(float(F))]
@@ -300,9 +319,10 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
     -------
     Path
         The file written. CSV: one row per (material, v0, F), the unit in each column name.
-        npz: ``material``, ``v0`` [m/s], ``F`` [N], each variable on (material, v0, F),
-        the per-material ``m``, ``k``, ``gamma0``, ``alpha``, ``beta``, ``g`` and a JSON
-        ``units`` string.
+        npz: ``material`` (the names), ``v0`` [m/s], ``F`` [N], each variable on
+        (material, v0, F), the per-material ``m``, ``k``, ``gamma0``, ``alpha``, ``beta``,
+        ``g`` and a JSON ``units`` string (k and gamma0 whose unit depends on the law:
+        the rule, e.g. ``"N m^-alpha"``).
     """
     ds = _open(dataset)
     path = Path(path)
@@ -321,9 +341,9 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
             w.writerow(columns)
             w.writerows(rows)
         return path
-    units = {name: ds[name].attrs.get("units", "1") for name in
+    units = {name: _unit(ds, name) for name in
              ["v0", "F", "g", *_MATERIAL_VARIABLES, *variables]}
-    np.savez(path, material=np.array([str(m) for m in ds["material"].values]),
+    np.savez(path, material=np.array(_material_names(ds)),
              v0=ds["v0"].values, F=ds["F"].values, g=ds["g"].values,
              units=np.array(json.dumps(units)),
              **{n: ds[n].values for n in _MATERIAL_VARIABLES},

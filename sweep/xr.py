@@ -188,8 +188,10 @@ class SweepAccessor:
 
     A sweep dataset holds the four parameters ``alpha, beta, gamma, gtilde`` as coordinates
     (grid designs: one dimension each; designs of experiments: coordinates along ``point``)
-    or variables, as written by ``sweep run``. On a dask-chunked dataset the results are
-    lazy and chunked like it.
+    or variables (scenes: on ``material`` and ``(material, v0, F)``), as written by
+    ``sweep run``. On a dask-chunked dataset the results are lazy and chunked like it. A
+    scene's ``material`` is an index; its names are the coordinate ``material_name``:
+    ``ds.set_xindex("material_name").sel(material_name="glass_kk")`` selects by name.
 
     Examples
     --------

@@ -1,7 +1,9 @@
 """What an xarray or CF user expects of a sweep's netCDF file: fill values, flag variables,
-dtypes, axis spacing, an indexed ``point`` dimension, provenance, exact round trips, CF
-compliance (``cfchecker``) and the ``sweep info`` view of it."""
+dtypes, axis spacing, an indexed ``point`` dimension, a scene's materials named by an
+auxiliary coordinate, provenance, exact round trips, CF compliance (``cfchecker``, and
+UDUNITS units through ``cfunits``) on every layout and the ``sweep info`` view of it."""
 import math
+import re
 from pathlib import Path
 
 import netCDF4
@@ -47,13 +49,68 @@ fields = "all"
 steps = 16
 """
 
+#: A scene of one contact law (Kuwabara-Kono, alpha = beta = 1.5).
+SCENE = """
+[design]
+kind = "scene"
+v0 = {start = 0.1, stop = 2.0, num = 3, spacing = "log"}
+F = [0.0, 1e-3]
+[design.materials.steel]
+law = "kk"
+m = 0.154
+k = 3.6138e10
+gamma0 = 1.5237e-6
+[design.materials.bead]
+law = "kk"
+m = 2.05e-3
+k = 9.858e9
+gamma0 = 5.2e-7
+[outputs]
+e = ["numeric"]
+fields = ["status"]
+[integrator]
+steps = 16
+"""
+
+#: A scene whose materials differ in alpha and in alpha - beta (kk, linear, tti).
+MIXED = """
+[design]
+kind = "scene"
+v0 = [0.5, 1.0]
+F = 0.0
+[design.materials.steel]
+law = "kk"
+m = 0.154
+k = 3.6138e10
+gamma0 = 1.5237e-6
+[design.materials.rubber]
+law = "linear"
+m = 2.05e-3
+k = 1e6
+gamma0 = 1e-3
+[design.materials.glass]
+law = "tti"
+radius = 1e-3
+density = 2500.0
+E = 63e9
+nu = 0.22
+damping = {model = "tsuji", e = 0.9}
+[outputs]
+e = ["numeric", "ord1"]
+fields = ["status"]
+[integrator]
+steps = 16
+"""
+
+TEXTS = {"grid": GRID, "doe": DOE, "scene": SCENE, "mixed": MIXED}
+
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
-    """A grid and a design-of-experiments output, made once for the module."""
+    """A grid, a design-of-experiments and two scene outputs, made once for the module."""
     root = tmp_path_factory.mktemp("files")
     out = {}
-    for name, text in (("grid", GRID), ("doe", DOE)):
+    for name, text in TEXTS.items():
         out[name] = root / f"{name}.nc"
         runner.run(config.loads(text, source=f"{name}.toml"), out[name], quiet=True)
     return out
@@ -123,11 +180,92 @@ def test_doe_point_dimension_is_indexed(files):
         assert int(ds.isel(point=5).point) == 5
 
 
-@pytest.mark.parametrize("kind", ["grid", "doe"])
+@pytest.mark.parametrize("kind", ["scene", "mixed"])
+def test_scene_materials_are_named_by_an_auxiliary_coordinate(files, kind):
+    # CF: a coordinate variable (named as its dimension) is numeric and monotonic; names
+    # are a label (CF 6.1: characters), an auxiliary coordinate that the variables on
+    # material list in their coordinates attribute.
+    names = [m.name for m in config.loads(TEXTS[kind]).design.materials]
+    with netCDF4.Dataset(files[kind]) as nc:
+        assert "material" in nc.variables
+        for dim in set(nc.dimensions) & set(nc.variables):
+            values = nc.variables[dim][:]
+            assert values.dtype.kind in "iuf", dim
+            assert values.size < 2 or (np.all(np.diff(values) > 0)
+                                       or np.all(np.diff(values) < 0)), dim
+        labels = nc.variables["material_name"]
+        assert labels.dtype == "S1" and labels.dimensions[0] == "material"
+        assert list(labels[:]) == names          # netCDF4 joins the characters (_Encoding)
+        for name, var in nc.variables.items():
+            if "material" in var.dimensions and name not in ("material", "material_name"):
+                assert "material_name" in var.getncattr("coordinates").split(), name
+    with xr.open_dataset(files[kind]) as ds:
+        assert "material_name" in ds.coords and ds.material.dtype.kind == "i"
+        np.testing.assert_array_equal(ds.material.values, np.arange(len(names)))
+        # The selection by name the README shows.
+        by_name = ds.set_xindex("material_name").sel(material_name=names[-1])
+        xr.testing.assert_equal(by_name.e_numeric.reset_coords(drop=True),
+                                ds.e_numeric.isel(material=-1).reset_coords(drop=True))
+
+
+#: Units of the per-material k and gamma0: a UDUNITS string where every material has the
+#: same integer power of the metre, none (the rule in ``comment``) otherwise.
+LAW_UNITS = {"scene": {"k": None, "gamma0": "s"}, "mixed": {"k": None, "gamma0": None}}
+
+
+@pytest.mark.parametrize("kind", ["scene", "mixed"])
+def test_law_dependent_units_are_written_only_where_udunits_can_say_them(files, kind):
+    with xr.open_dataset(files[kind]) as ds:
+        for name, units in LAW_UNITS[kind].items():
+            attrs = ds[name].attrs
+            assert attrs.get("units") == units, name
+            if units is None:
+                rule = {"k": "N m^-alpha", "gamma0": "s m^(alpha-beta)"}[name]
+                assert rule in attrs["comment"], name
+
+
+@pytest.mark.parametrize("alpha, beta, k, gamma0", [
+    ([1.0], [1.0], "N m-1", "s"), ([2.0, 2.0], [1.0, 1.0], "N m-2", "s m"),
+    ([1.5], [1.5], None, "s"), ([1.5], [1.0], None, None), ([1.5], [2.5], None, "s m-1"),
+    ([1.0, 2.0], [1.0, 2.0], None, "s"),
+])
+def test_law_units_of_k_and_gamma0(alpha, beta, k, gamma0):
+    attrs = store.law_units_attrs(np.array(alpha), np.array(beta))
+    assert (attrs["k"].get("units"), attrs["gamma0"].get("units")) == (k, gamma0)
+    for name, units in (("k", k), ("gamma0", gamma0)):
+        assert ("comment" in attrs[name]) == (units is None), name
+
+
+def _units():
+    """cfunits' Units, or skip where cfunits or its UDUNITS-2 C library is missing."""
+    try:
+        from cfunits import Units
+    except Exception as exc:
+        pytest.skip(f"cfunits is not usable here ({type(exc).__name__}: {exc}); "
+                    "pip install cfunits, and the UDUNITS-2 library (libudunits2-0)")
+    return Units
+
+
+@pytest.mark.parametrize("kind", list(TEXTS))
+def test_every_units_attribute_is_udunits_valid(files, kind):
+    Units = _units()
+    with netCDF4.Dataset(files[kind]) as nc:
+        units = {n: v.getncattr("units") for n, v in nc.variables.items()
+                 if "units" in v.ncattrs()}
+    assert units
+    for name, text in units.items():
+        assert Units(text).isvalid, (name, text)
+        # SI and unscaled: UDUNITS has integer powers only, and reads "N m-1.5" as a valid
+        # but different unit, 0.5 N m-1; a leading factor in its definition betrays that.
+        definition = Units(text).formatted(definition=True)
+        assert not re.match(r"[-+.\deE]+ ", definition), (name, text, definition)
+
+
+@pytest.mark.parametrize("kind", ["grid", "doe", "scene", "mixed"])
 @pytest.mark.parametrize("decoding", [{}, {"mask_and_scale": False}, {"decode_cf": False}],
                          ids=["default", "mask_and_scale=False", "decode_cf=False"])
 def test_xarray_reads_back_exactly_what_was_computed(files, kind, decoding):
-    want = expected({"grid": GRID, "doe": DOE}[kind])
+    want = expected(TEXTS[kind])
     with xr.open_dataset(files[kind], **decoding) as ds:
         for name, values in want.items():
             dtype = store.variable_spec(name)[0]
@@ -204,6 +342,15 @@ def test_info_shows_a_single_value_once(files):
     assert "point = 20" in doe
 
 
+def test_info_names_a_scenes_materials(files):
+    text = store.summarize(files["mixed"])
+    assert "dimensions: material = 3, v0 = 2, F = 1  (6 points)" in text  # no strlen
+    assert "  material_name steel, rubber, glass  material name" in text
+    lines = text.splitlines()
+    assert any(line.startswith("  k  ") for line in lines)
+    assert not any(line.startswith("  material ") for line in lines)   # the index: dims
+
+
 # --------------------------------------------------------------------------- cfchecker
 
 _TABLE = ("<?xml version='1.0'?><{root}><version_number>none</version_number>"
@@ -234,7 +381,7 @@ def _counts(tmp_path, path):
     return checker.get_total_counts(), checker.all_messages
 
 
-@pytest.mark.parametrize("kind", ["grid", "doe"])
+@pytest.mark.parametrize("kind", list(TEXTS))
 def test_cfchecker_finds_no_error_and_no_warning(files, tmp_path, kind):
     counts, messages = _counts(tmp_path, files[kind])
     assert (counts["FATAL"], counts["ERROR"], counts["WARN"]) == (0, 0, 0), messages

@@ -95,7 +95,10 @@ def test_scene_dataset_dims_units_and_invariance(tmp_path):
     with xr.open_dataset(out) as ds:
         ds = ds.load()
     assert ds.e_numeric.dims == ("material", "v0", "F")
-    assert list(ds.material.values) == ["steel", "steel_x2"]
+    assert list(ds.material_name.values) == ["steel", "steel_x2"]
+    assert list(ds.material.values) == [0, 1]          # an index: CF coordinates are numbers
+    steel = ds.set_xindex("material_name").sel(material_name="steel_x2")
+    assert float(steel.m) == 0.308
     assert ds.v0.attrs["units"] == "m s-1" and ds.v0.attrs["spacing"] == "log"
     assert ds.F.attrs["units"] == "N" and ds.g.attrs["units"] == "m s-2"
     for name in ("gamma", "gtilde"):

@@ -86,4 +86,19 @@ def test_export_csv_and_npz(scene, tmp_path, capsys):
         assert z["e_numeric"].shape == (2, 25, 6)
         np.testing.assert_array_equal(z["e_numeric"], table.values)
         assert list(z["material"]) == ["steel", "bead"]
-        assert json.loads(str(z["units"]))["v0"] == "m s-1"
+        units = json.loads(str(z["units"]))
+        assert units["v0"] == "m s-1" and units["gamma0"] == "s"
+        assert units["k"] == "N m^-alpha"     # no UDUNITS string for N m^-1.5: the rule
+
+
+def test_a_scene_file_written_before_material_name_still_reads(scene):
+    # Such files held the names in the material coordinate itself.
+    import xarray as xr
+
+    with xr.open_dataset(scene) as ds:
+        old = ds.load().swap_dims(material="material_name").drop_vars("material") \
+            .rename(material_name="material")
+    assert old.material.dtype.kind in "OU"
+    table, new = tables.Table(old), tables.Table(scene)
+    assert table.materials == new.materials == ["steel", "bead"]
+    assert table(1.0, 0.1, "bead") == new(1.0, 0.1, "bead")

@@ -49,8 +49,9 @@ from __future__ import annotations
 
 from sweep.store.layout import Layout, Writer, flat_blocks
 from sweep.store.memory import MemoryWriter
-from sweep.store.metadata import (CONVENTIONS, REPORT, SPACINGS, coordinate_attrs,
-                                  index_dtype, variable_spec)
+from sweep.store.metadata import (CONVENTIONS, MATERIAL_NAME, REPORT, SPACINGS,
+                                  coordinate_attrs, index_dtype, law_units_attrs,
+                                  variable_spec)
 from sweep.store.netcdf import (CHUNK_CACHE_BYTES, COMPLEVEL, STORAGE_CHUNK, SUFFIXES,
                                 NetCDFWriter, commit)
 from sweep.store.partial import (CHUNK_FORMAT, MANIFEST_FORMAT, LockError, OutputLock,
@@ -64,4 +65,5 @@ __all__ = [
     "partial_dir", "MANIFEST_FORMAT", "REPORT", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK",
     "COMPLEVEL", "SUFFIXES", "CHUNK_FORMAT", "LockError", "OutputLock", "lock_path",
     "partial_bytes", "remove_untrusted", "CONVENTIONS", "SPACINGS", "index_dtype",
+    "law_units_attrs", "MATERIAL_NAME",
 ]

@@ -27,8 +27,9 @@ class Layout:
     dims, shape : tuple
         Dimensions of every data variable, C order over the flat point index.
     axes : dict
-        Coordinate variable per dimension (grid and scene designs; numbers or strings);
-        empty for scattered designs.
+        Coordinate variable per dimension (grid and scene designs): numbers, an integer
+        index 0..n-1 for a dimension of names (a scene's ``material``); empty for
+        scattered designs.
     point_coords : tuple of str
         Coordinates stored per point along the single dimension (scattered designs), which
         is then indexed by an integer coordinate 0..n-1 of its own name.
@@ -40,7 +41,10 @@ class Layout:
         like ``point_coords``, written from the points of each chunk.
     constants : dict
         Variables known before the run: name -> (dims, values) (a scene's per-material
-        m, k, gamma0, alpha, beta; its scalar g).
+        m, k, gamma0, alpha, beta and names; its scalar g).
+    aux_coords : tuple of str
+        Constants that are auxiliary coordinates (a scene's ``material_name``, strings):
+        every other variable on their dimensions lists them in its ``coordinates``.
     attrs : dict
         Attributes per coordinate or variable name, added to those of
         :func:`sweep.store.metadata.coordinate_attrs` (e.g. a material's long name).
@@ -54,6 +58,7 @@ class Layout:
     point_vars: tuple = ()
     constants: dict = dataclasses.field(default_factory=dict)
     attrs: dict = dataclasses.field(default_factory=dict)
+    aux_coords: tuple = ()
 
     @property
     def size(self) -> int:

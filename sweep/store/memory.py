@@ -29,12 +29,6 @@ from sweep.store.schema import cast_exactly, chunk_values, dataset_variables, st
 __all__ = ["MemoryWriter"]
 
 
-def _backend_encoding(var: Any) -> dict:
-    """The encoding xarray's netCDF4 backend gives a variable it reads, where decoding
-    depends on it: names (netCDF variable-length strings) are tagged ``dtype=str``."""
-    return {"dtype": str} if var.dtype == object else {}
-
-
 class MemoryWriter:
     """Assemble a sweep's variables in memory, chunk by chunk, as chunks finish.
 
@@ -117,8 +111,7 @@ class MemoryWriter:
         arrays, self._arrays = self._arrays, None
         raw = xr.Dataset(
             {var.name: xr.Variable(var.dims, var.values if var.values is not None
-                                   else arrays.pop(var.name).reshape(shape), attrs=var.attrs,
-                                   encoding=_backend_encoding(var))
+                                   else arrays.pop(var.name).reshape(shape), attrs=var.attrs)
              for var in self._schema}, attrs=self._attrs)
         decoded = xr.decode_cf(raw)
         del raw

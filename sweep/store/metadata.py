@@ -7,7 +7,8 @@ the single entry point the rest of the package calls for these facts (the runner
 dtypes, the writer for attributes, the summary for the flags), so that where the facts
 live can change without touching the callers.
 
-All quantities are dimensionless (scaled by eq. (2) of the report), hence ``units = "1"``.
+The results are dimensionless (scaled by eq. (2) of the report), hence ``units = "1"``; a
+scene's physical inputs carry their SI units.
 
 Conventions (CF-1.8, the newest version the ``cfchecker`` package verifies):
 
@@ -23,7 +24,16 @@ Conventions (CF-1.8, the newest version the ``cfchecker`` package verifies):
   and 1, its meanings read from the registry.
 * Grid coordinates carry ``spacing``: ``"linear"`` or ``"log"`` for a range
   ``{start, stop, num}``, ``"irregular"`` for a list of values, ``"single"`` for one value.
-* Designs of experiments index their ``point`` dimension with a coordinate 0..n-1.
+* Designs of experiments index their ``point`` dimension with a coordinate 0..n-1, scenes
+  their ``material`` dimension likewise: a CF coordinate variable is numeric and
+  monotonic, so the materials' names are an auxiliary coordinate,
+  ``material_name(material)``, a CF label (characters, CF 6.1; xarray reads strings), that
+  every variable on ``material`` lists in its ``coordinates`` attribute.
+* Every ``units`` attribute is a UDUNITS string in unscaled SI units. A scene's k
+  [N m^-alpha] and gamma0 [s m^(alpha-beta)] have one only where every material has the
+  same integer power of the metre: UDUNITS has no fractional powers (it reads
+  ``"N m-1.5"`` as 0.5 N m-1). Elsewhere the variable has no ``units`` and its
+  ``comment`` gives the SI unit of each material's law (:func:`law_units_attrs`).
 
 The facts themselves (long names, descriptions, dtypes, flags) live in
 :mod:`sweep.registry`; this module only turns them into netCDF attributes.
@@ -39,7 +49,7 @@ from sweep import registry
 from sweep.registry import REPORT
 
 __all__ = ["REPORT", "CONVENTIONS", "SPACINGS", "variable_spec", "coordinate_attrs",
-           "index_dtype"]
+           "law_units_attrs", "index_dtype", "MATERIAL_NAME"]
 
 #: The ``Conventions`` global attribute: the newest CF version the ``cfchecker`` package
 #: (4.1) knows; the files use nothing of later versions.
@@ -127,6 +137,14 @@ _POINT = {"long_name": "design point index", "units": "1",
                          "chunking"}
 
 
+#: The auxiliary coordinate that names a scene's materials; and the index coordinates.
+MATERIAL_NAME = registry.MATERIAL_NAME
+_INDEXES = {"point": _POINT, "material": {
+    "long_name": "material index", "units": "1",
+    "description": f"position of the material in design.materials, from 0; its name is "
+                   f"{MATERIAL_NAME}"}}
+
+
 def coordinate_attrs(name: str, spacing: str | None = None) -> dict:
     """CF attributes of a coordinate or input quantity.
 
@@ -135,16 +153,17 @@ def coordinate_attrs(name: str, spacing: str | None = None) -> dict:
     name : str
         One of the four scaled parameters of eq. (2) (``alpha``, ``beta``, ``gamma``,
         ``gtilde``), a physical input of the scaling (``m``, ``k``, ``gamma0``, ``v0``,
-        ``g``, ``F``), a material property (:data:`sweep.registry.MATERIAL`) or ``point``
-        (the index of a design of experiments).
+        ``g``, ``F``), a material property (:data:`sweep.registry.MATERIAL`), ``point``
+        or ``material`` (the index of a design of experiments, of a scene's materials).
     spacing : str, optional
         Spacing of an axis, one of :data:`SPACINGS`.
 
     Returns
     -------
     dict
-        ``long_name``, ``units`` and ``description``, and ``spacing`` if given; empty for
-        another name (its attributes then come from the layout,
+        ``long_name``, ``units`` (not for k and gamma0, whose units depend on the contact
+        law: :func:`law_units_attrs`) and ``description``, and ``spacing`` if given; empty
+        for another name (its attributes then come from the layout,
         :attr:`sweep.store.layout.Layout.attrs`).
 
     Raises
@@ -152,17 +171,63 @@ def coordinate_attrs(name: str, spacing: str | None = None) -> dict:
     ValueError
         If ``spacing`` is not one of :data:`SPACINGS`.
     """
-    if name == "point":
-        attrs = dict(_POINT)
+    p = {**registry.MATERIAL, **registry.PHYSICAL, **registry.PARAMETERS}.get(name)
+    if name in _INDEXES:
+        attrs = dict(_INDEXES[name])
+    elif p is None:
+        attrs = {}
     else:
-        p = {**registry.MATERIAL, **registry.PHYSICAL, **registry.PARAMETERS}.get(name)
-        attrs = ({"long_name": p.long_name, "units": p.units, "description": p.description}
-                 if p is not None else {})
+        attrs = {"long_name": p.long_name, "description": p.description}
+        if not p.law_units:  # else the law sets them: law_units_attrs
+            attrs["units"] = p.units
     if spacing is not None:
         if spacing not in SPACINGS:
             raise ValueError(f"spacing must be one of {SPACINGS}, got {spacing!r}")
         attrs["spacing"] = spacing
     return attrs
+
+
+def law_units_attrs(alpha: np.ndarray, beta: np.ndarray) -> dict[str, dict]:
+    """The units attributes of the law-dependent inputs (k, gamma0) of a scene's materials.
+
+    Parameters
+    ----------
+    alpha, beta : ndarray
+        Exponents of each material's contact law.
+
+    Returns
+    -------
+    dict of str -> dict
+        Per input (:attr:`sweep.registry.Parameter.law_units`): ``{"units": ...}`` where
+        every material has the same UDUNITS unit, else ``{"comment": ...}`` stating the SI
+        unit of each law. A variable on ``material`` has one ``units`` for all materials,
+        and UDUNITS cannot say a fractional power of the metre: no ``units`` is then
+        honest, a wrong one would not be.
+    """
+    laws = list(dict.fromkeys(zip(np.asarray(alpha, float).tolist(),
+                                  np.asarray(beta, float).tolist())))
+    return {name: _law_units(p, laws)
+            for name, p in registry.PHYSICAL.items() if p.law_units}
+
+
+def _law_units(p: registry.Parameter, laws: list) -> dict:
+    """``units``, or the ``comment`` that replaces it, of ``p`` under the (alpha, beta)
+    ``laws`` (distinct, in the materials' order)."""
+    units = {p.cf_units(a, b) for a, b in laws}
+    if len(units) == 1 and None not in units:
+        return {"units": units.pop()}
+    base, per_alpha, per_beta = p.law_units
+    each = {}
+    for a, b in laws:   # one entry per distinct unit, with the exponents it depends on
+        power = per_alpha * a + per_beta * b
+        law = f"alpha = {a:g}" + (f", beta = {b:g}" if per_beta else "")
+        each.setdefault(base if power == 0 else f"{base} m^{power:g}", law)
+    why = ("UDUNITS, which CF units follow, has no fractional powers"
+           if None in units else "the unit differs between the materials")
+    return {"comment": f"SI unit {p.units}, with the exponents of each material's law "
+                       f"(variables alpha, beta): "
+                       + "; ".join(f"{u} ({law})" for u, law in each.items())
+                       + f". No units attribute: {why}."}
 
 
 def index_dtype(size: int) -> np.dtype:

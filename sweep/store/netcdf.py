@@ -8,8 +8,9 @@ settings; and :func:`commit`, the fsync + rename that makes the output appear at
 The file opens with a plain ``xarray.open_dataset``: grid designs have dimensions
 (alpha, beta, gamma, gtilde) with coordinate variables, scattered designs a ``point``
 dimension, indexed 0..n-1, with the four parameters as (point) coordinates, scenes the
-dimensions (material, v0, F) with gamma and g~ as data variables on them and the materials'
-properties on ``material``. Attributes, fill values and storage dtypes come from
+dimensions (material, v0, F) with gamma and g~ as data variables on them, the materials'
+properties on ``material`` (indexed 0..n-1) and their names the auxiliary coordinate
+``material_name``. Attributes, fill values and storage dtypes come from
 :mod:`sweep.store.metadata` and the layout's own (:attr:`~sweep.store.layout.Layout.attrs`).
 
 What the file holds (variables, attributes as stored, the arrays of each chunk) comes from
@@ -104,12 +105,11 @@ class NetCDFWriter:
 
     def _constant(self, var: Variable) -> None:
         """A variable written once, here: an axis or a constant of the layout."""
-        if var.dtype == object:  # names (a scene's materials): netCDF strings
-            nc_var = self._nc.createVariable(var.name, str, var.dims)
-            nc_var[:] = var.values
-        else:
-            nc_var = self._nc.createVariable(var.name, var.dtype, var.dims, fill_value=False)
-            nc_var[...] = var.values
+        for dim, n in zip(var.dims, var.values.shape):
+            if dim not in self._nc.dimensions:   # the string length of names (a label)
+                self._nc.createDimension(dim, n)
+        nc_var = self._nc.createVariable(var.name, var.dtype, var.dims, fill_value=False)
+        nc_var[...] = var.values   # before _Encoding: the characters are stored as given
         nc_var.setncatts(var.attrs)
 
     def _define(self, attrs):

@@ -35,7 +35,8 @@ class Variable:
     name : str
     dims : tuple of str
     dtype : numpy.dtype
-        Storage dtype; ``object`` for names (netCDF variable-length strings).
+        Storage dtype; ``S1`` for names (a CF label: characters along a last dimension
+        ``<name>_strlen`` that the layout does not list).
     attrs : dict
         CF attributes as stored, ``_FillValue`` and ``coordinates`` included.
     values : ndarray or None
@@ -51,12 +52,40 @@ class Variable:
 
 
 def _known(layout: Layout, name: str, dims: tuple, values: Any) -> Variable:
-    """An axis or constant of the layout: float64, or strings for names (materials)."""
+    """An axis or constant of the layout: float64, an integer index (the ``material``
+    axis) in :func:`index_dtype`, or names (a scene's ``material_name``) as characters."""
     values = np.asarray(values)
-    values = (values.astype(object) if values.dtype.kind in "OUS"
-              else values.astype(np.float64))
     attrs = {**coordinate_attrs(name, layout.spacing.get(name)), **layout.attrs.get(name, {})}
+    if values.dtype.kind in "OUS":
+        return _label(name, tuple(dims), values, attrs)
+    values = values.astype(index_dtype(values.size) if values.dtype.kind in "iu"
+                           else np.float64)
     return Variable(name, tuple(dims), values.dtype, attrs, values)
+
+
+def _label(name: str, dims: tuple, values: np.ndarray, attrs: dict) -> Variable:
+    """Names as a CF label (CF 6.1): a char array whose last dimension,
+    ``<name>_strlen``, holds the UTF-8 bytes of each name, NUL-padded. Not a netCDF-4
+    string: cfchecker (4.1) refuses variable-length types, and char arrays are what every
+    CF version and reader knows; xarray decodes them back to strings (``_Encoding``)."""
+    encoded = [str(v).encode("utf-8") for v in values.reshape(-1)]
+    width = max([1] + [len(b) for b in encoded])
+    chars = np.array(encoded, dtype=f"S{width}").reshape(values.shape + (1,)).view("S1")
+    return Variable(name, dims + (f"{name}_strlen",), np.dtype("S1"),
+                    {**attrs, "_Encoding": "utf-8"}, chars)
+
+
+def _with_aux_coords(layout: Layout, var: Variable) -> Variable:
+    """``var`` listing the auxiliary coordinates on its dimensions (CF 5: a data variable
+    names its auxiliary coordinates in ``coordinates``; xarray reads them as coordinates)."""
+    dims = set(var.dims)
+    names = [n for n in layout.aux_coords
+             if n != var.name and set(layout.constants[n][0]) <= dims]
+    if not names or var.name in layout.dims:   # a coordinate variable names none
+        return var
+    listed = var.attrs.get("coordinates", "").split()
+    coordinates = " ".join(listed + [n for n in names if n not in listed])
+    return dataclasses.replace(var, attrs={**var.attrs, "coordinates": coordinates})
 
 
 def dataset_variables(layout: Layout, variables: Sequence[str]) -> list[Variable]:
@@ -72,7 +101,8 @@ def dataset_variables(layout: Layout, variables: Sequence[str]) -> list[Variable
     -------
     list of Variable
         Axes, constants, the ``point`` index (scattered designs), per-point values, then
-        the results.
+        the results; each variable on the dimension of an auxiliary coordinate
+        (:attr:`Layout.aux_coords`) lists it in its ``coordinates`` attribute.
     """
     out = [_known(layout, name, (name,), values) for name, values in layout.axes.items()]
     out += [_known(layout, name, dims, values)
@@ -89,7 +119,7 @@ def dataset_variables(layout: Layout, variables: Sequence[str]) -> list[Variable
         if layout.point_coords:
             attrs = dict(attrs, coordinates=" ".join(layout.point_coords))
         out.append(Variable(name, dims, np.dtype(dtype), attrs))
-    return out
+    return [_with_aux_coords(layout, var) for var in out]
 
 
 def chunk_values(layout: Layout, start: int, stop: int, arrays: Mapping[str, Any],

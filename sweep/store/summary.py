@@ -86,20 +86,18 @@ def summarize(path: str | os.PathLike) -> str:
         attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
         _require_sweep_output(path, attrs)
         lines.append(f"{path}: {attrs.get('title', '')}")
-        dims = {d: len(nc.dimensions[d]) for d in nc.dimensions}
+        # The data's dimensions: not the string length of a label (material_name_strlen)
+        chars = {v.dimensions[-1] for v in nc.variables.values() if v.dtype == np.dtype("S1")}
+        dims = {d: len(nc.dimensions[d]) for d in nc.dimensions if d not in chars}
         lines.append("dimensions: " + ", ".join(f"{d} = {n}" for d, n in dims.items())
                      + f"  ({count(math.prod(dims.values()), 'point')})")
-        # Dimension coordinates (a scene's material, v0, F; not the integer index of a
-        # design of experiments' points, which the dimension line already tells), then the
-        # scaled parameters.
-        coord_names = [n for n in dims if n in nc.variables
-                       and nc.variables[n].dtype.kind not in "iu"] + [
-            n for n in ("alpha", "beta", "gamma", "gtilde") if n in nc.variables and n not in dims]
+        coord_names = _coordinate_names(nc, dims)
         lines.append("coordinates:")
-        lines += [_coordinate_line(name, nc.variables[name]) for name in coord_names]
+        width = max([8] + [len(name) for name in coord_names])
+        lines += [_coordinate_line(name, nc.variables[name], width) for name in coord_names]
         lines.append("variables:")
         for name, var in nc.variables.items():
-            if name in coord_names or name in nc.dimensions:  # the point index: see dims
+            if name in coord_names or name in dims:   # an index (point, material): see dims
                 continue
             lines.append(f"  {name:<20} {var.getncattr('long_name')}")
             lines.append("      " + _stats(name, var))
@@ -109,6 +107,29 @@ def summarize(path: str | os.PathLike) -> str:
     return "\n".join(lines)
 
 
+def _is_names(var) -> bool:
+    """Names: a CF label (characters, read back as strings), or a netCDF-4 string in files
+    written before material_name."""
+    return var.dtype is str or var.dtype == np.dtype("S1")
+
+
+def _is_index(var) -> bool:
+    """An integer index 0..n-1 (of a design's points, of a scene's materials)."""
+    return not _is_names(var) and var.dtype.kind in "iu"
+
+
+def _coordinate_names(nc, dims) -> list[str]:
+    """The coordinates :func:`summarize` lists: those of the dimensions (a scene's v0, F),
+    the names of a scene's materials (not their index, nor a design's point index: the
+    dimension line tells those), then the scaled parameters."""
+    names = [n for n in dims if n in nc.variables and not _is_index(nc.variables[n])]
+    # Files written before material_name held the names in the material coordinate.
+    labels = [n for n, v in nc.variables.items() if _is_names(v) and n not in names]
+    params = [n for n in ("alpha", "beta", "gamma", "gtilde")
+              if n in nc.variables and n not in dims]
+    return labels + names + params
+
+
 def _require_sweep_output(path, attrs):
     """Refuse, naming what is missing, a netCDF file that ``sweep run`` did not write."""
     if "sweep_version" not in attrs:
@@ -116,9 +137,9 @@ def _require_sweep_output(path, attrs):
                          "sweep_version global attribute)")
 
 
-def _coordinate_line(name, var):
-    if var.dtype is str:  # names (materials)
-        return f"  {name:<8} {', '.join(var[:])}  {var.getncattr('long_name')}"
+def _coordinate_line(name, var, width=8):
+    if _is_names(var):  # a scene's material_name
+        return f"  {name:<{width}} {', '.join(var[:])}  {var.getncattr('long_name')}"
     lo, hi = math.inf, -math.inf
     for block in _iter_flat(var, var.shape):
         lo, hi = min(lo, float(block.min())), max(hi, float(block.max()))
@@ -126,7 +147,7 @@ def _coordinate_line(name, var):
     values = f"= {lo:.6g}" if lo == hi else f"[{lo:.6g}, {hi:.6g}]"
     if "spacing" in var.ncattrs() and lo != hi:
         values += f" ({var.getncattr('spacing')})"
-    return f"  {name:<8} {values}  {var.getncattr('long_name')}"
+    return f"  {name:<{width}} {values}  {var.getncattr('long_name')}"
 
 
 def _stats(name, var):

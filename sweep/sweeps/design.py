@@ -369,6 +369,8 @@ class SceneDesign(Design):
 
     Stored with dimensions (material, v0, F): the scaled gamma and g~ as data variables on
     them, the materials' m, k, gamma0, alpha, beta on ``material`` and g as a scalar.
+    ``material`` is indexed 0..n-1 and the names are the auxiliary coordinate
+    ``material_name`` (a CF coordinate variable cannot hold strings).
     """
 
     kind = "scene"
@@ -400,7 +402,8 @@ class SceneDesign(Design):
 
     @property
     def axes(self):
-        return {"material": np.array([m.name for m in self.materials]), "v0": self._v0.copy(),
+        """The coordinates: the materials' index (their names: :meth:`layout`), v0, F."""
+        return {"material": np.arange(len(self.materials)), "v0": self._v0.copy(),
                 "F": self._F.copy()}
 
     def points(self, start, stop):
@@ -414,15 +417,18 @@ class SceneDesign(Design):
 
     def layout(self) -> store.Layout:
         constants = {name: (("material",), values) for name, values in self._props.items()}
+        constants[store.MATERIAL_NAME] = (("material",), [m.name for m in self.materials])
         constants["g"] = ((), self.spec.g)
-        attrs = {"material": {"long_name": "material",
-                              "description": "name of the bead / floor material of the scene "
-                                             "(design.materials)",
-                              "origin": "; ".join(f"{m.name}: {m.origin}"
-                                                  for m in self.materials)}}
+        attrs = {store.MATERIAL_NAME: {
+            "long_name": "material name",
+            "description": "name of the bead / floor material of the scene (design.materials)",
+            "origin": "; ".join(f"{m.name}: {m.origin}" for m in self.materials)}}
+        # k and gamma0 have units only where the materials' laws give them one UDUNITS unit.
+        attrs.update(store.law_units_attrs(self._props["alpha"], self._props["beta"]))
         return store.Layout(dims=self.dims, shape=self.shape, axes=self.axes,
                             spacing=dict(self.spec.spacing), point_vars=("gamma", "gtilde"),
-                            constants=constants, attrs=attrs)
+                            constants=constants, attrs=attrs,
+                            aux_coords=(store.MATERIAL_NAME,))
 
     def describe(self):
         mats = ", ".join(f"{m.name} (alpha={m.alpha:g}, beta={m.beta:g}, m={m.m:.6g} kg, "
