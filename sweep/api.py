@@ -12,6 +12,7 @@ kernels, :mod:`sweep._arrays`.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from typing import Any
 
 import numpy as np
@@ -245,8 +246,26 @@ def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
     Returns
     -------
     ndarray of float64 (float for a scalar call)
+
+    Warns
+    -----
+    RuntimeWarning
+        Where a march ran out of its step budget (``Status.BUDGET_EXHAUSTED``): e there is
+        only an upper bound, and this function returns no status to say so
+        (:func:`cor_with_status` and :func:`integrate` do, without the warning).
     """
-    return cor_with_status(alpha, beta, gamma, gtilde, method, **options)[0]
+    e, status = cor_with_status(alpha, beta, gamma, gtilde, method, **options)
+    _warn_budget(status)
+    return e
+
+
+def _warn_budget(status: Any) -> None:
+    n = int(np.count_nonzero(np.asarray(status) == Status.BUDGET_EXHAUSTED))
+    if n:
+        warnings.warn(f"{n} point(s) ran out of the step budget (status BUDGET_EXHAUSTED): "
+                      "their e is an upper bound, not a value; cor_with_status or integrate "
+                      "give the statuses and e_err, max_steps a larger budget",
+                      RuntimeWarning, stacklevel=3)
 
 
 # --------------------------------------------------------------------------- coefficients

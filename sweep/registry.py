@@ -154,7 +154,8 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               1.0, rule=_UNIQUENESS),
     Parameter("gamma", "scaled damping gamma",
               "gamma = gamma0 v0^(2 beta/(alpha+1) - 1) (k/m)^(1 - beta/(alpha+1)), "
-              "report eq. (2)", 0.0, rule=">= 0"),
+              "report eq. (2)", 0.0, rule=">= 0 and <= 1e300 (beyond, the damping rate "
+              "gamma beta u^(beta-1) overflows)", maximum=1e300),
     Parameter("gtilde", "scaled load g~",
               "g~ = (m/k)^(1/(alpha+1)) v0^(-2 alpha/(alpha+1)) (g + F/m), report eq. (2)",
               0.0, rule=">= 0 (a compressive load)"),

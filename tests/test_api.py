@@ -1,5 +1,6 @@
 """The public API: broadcasting, scalars, validation, statuses, parallel/serial identity."""
 import concurrent.futures
+import warnings
 
 import numba
 import numpy as np
@@ -196,10 +197,39 @@ def test_undefined_exponents_still_name_alpha_and_beta():
 
 
 def test_overflowing_formula_names_the_point_not_the_exponents():
-    # gamma^2 of (25) overflows at gamma = 1.7e308 (inf - inf): sp is defined at KK, and
-    # g~ = 1 is well inside the range of I, Q, so neither may be blamed.
+    # gamma^2 of (25) overflows at gamma = 1.7e308 (inf - inf), which is now outside the
+    # domain (gamma <= 1e300): sp is defined at KK, and g~ = 1 is well inside the range of
+    # I, Q, so neither may be blamed.
     for method in ("sp", "ord2_numint"):
         with pytest.raises(ValueError) as info:
             sweep.cor(1.5, 1.5, 1.7e308, 1.0, method=method)
         msg = str(info.value)
-        assert "gamma=1.7e+308" in msg and "not defined" not in msg and "range of I" not in msg
+        assert "gamma" in msg and "1.7e+308" in msg
+        assert "not defined" not in msg and "range of I" not in msg
+
+
+def test_cor_warns_where_a_march_ran_out_of_budget():
+    """cor returns no status: where the budget ran out (here a resolution the default budget
+    cannot finish), e is only an upper bound and a RuntimeWarning says so; cor_with_status
+    and integrate carry the status instead, without the warning."""
+    with pytest.warns(RuntimeWarning, match="BUDGET_EXHAUSTED"):
+        e = sweep.cor(1.5, 1.5, 0.1, 1.0, steps=1e7, max_steps=2000)
+    r = sweep.integrate(1.5, 1.5, 0.1, 1.0, steps=1e7, max_steps=2000)
+    assert r.status == Status.BUDGET_EXHAUSTED and e == r.e and r.e_err >= r.e
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _, status = sweep.cor_with_status(1.5, 1.5, [0.1, 0.2], 1.0, steps=1e7, max_steps=2000)
+        assert np.all(status == Status.BUDGET_EXHAUSTED)
+        sweep.cor(1.5, 1.5, 0.1, 1.0)                 # a finished march: no warning
+
+
+def test_gamma_above_1e300_is_outside_the_domain():
+    """Beyond 1e300 the damping rate gamma beta u^(beta-1) overflows (gamma = 1.7e308 gave
+    e = NaN with BUDGET_EXHAUSTED): the domain stops there, in every method."""
+    with pytest.raises(ValueError, match=r"gamma must be .*1e300.*got 1e\+305"):
+        sweep.cor(1.5, 1.5, 1e305, 1.0)
+    r = sweep.integrate(1.5, 1.5, np.array([1e300, 1e305, 1.7e308]), 1.0)
+    assert list(r.status) == [Status.AT_REST, Status.INVALID, Status.INVALID]
+    assert r.e[0] == 0.0 and np.isnan(r.e[1:]).all()
+    e, status = sweep.cor_with_status(1.5, 1.5, np.array([1e300, 1e305]), 1.0, method="ord1")
+    assert list(status) == [Status.OK, Status.INVALID] and np.isnan(e[1])

@@ -38,6 +38,7 @@ _KIND_GENERAL = 99
 _ALPHA_MIN = PARAMETERS["alpha"].minimum
 _BETA_MIN = PARAMETERS["beta"].minimum
 _GAMMA_MIN = PARAMETERS["gamma"].minimum
+_GAMMA_MAX = PARAMETERS["gamma"].maximum
 _GTILDE_MIN = PARAMETERS["gtilde"].minimum
 
 
@@ -56,9 +57,10 @@ class Law(NamedTuple):
 
 @jit(inline="always")
 def in_domain(alpha, beta, gamma, gtilde):
-    """The point lies in :data:`sweep.registry.PARAMETERS` (finite, above the minima)."""
+    """The point lies in :data:`sweep.registry.PARAMETERS` (finite, above the minima, gamma
+    up to its maximum)."""
     return (alpha >= _ALPHA_MIN and beta >= _BETA_MIN and gamma >= _GAMMA_MIN
-            and gtilde >= _GTILDE_MIN and math.isfinite(alpha) and math.isfinite(beta)
+            and gamma <= _GAMMA_MAX and gtilde >= _GTILDE_MIN and math.isfinite(alpha) and math.isfinite(beta)
             and math.isfinite(gamma) and math.isfinite(gtilde))
 
 
