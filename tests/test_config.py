@@ -98,7 +98,8 @@ def test_hash_ignores_formatting_but_not_values():
 
 
 def test_integrator_options_and_run_tables():
-    cfg = config.loads(GRID + """
+    cfg = config.loads(GRID.replace('e = ["numeric", "ord1"]',
+                                    'e = ["numeric", "ord1", "ord2_approx"]') + """
 [integrator]
 steps = 16
 rest_tol = 1e-9
@@ -197,6 +198,7 @@ def test_doe_needs_a_sampled_axis_and_lhs_size_limit():
     ("[options.ord2_approx]\nn = 20", ["options.ord2_approx.n", "odd", "20"]),
     ("[options.ord2_approx]\nm = 21", ["options.ord2_approx.m", "unknown option"]),
     ("[options.ord9]\nn = 21", ["options.ord9", "unknown method"]),
+    ("[options.ord2_approx]\nn = 21", ["options.ord2_approx", "does not compute", "ord1"]),
     ("[run]\nchunk_size = 0", ["run.chunk_size", ">= 1", "0"]),
 ])
 def test_other_table_errors(extra, expected):

@@ -872,14 +872,21 @@ def _parse_integrator(tab):
     return IntegratorSettings(given=tuple(sorted(given.items())))
 
 
-def _parse_options(tab):
+def _parse_options(tab, outputs):
     options = {}
     approximations = registry.approximations() + registry.composites()
+    computed = outputs.approximations + outputs.composites
     for name in list(tab.data):
         if name not in approximations:
             hint = " (the integrator's options go in [integrator])" if name == "numeric" else ""
             tab.error(name, f"unknown method{hint}; expected one of {', '.join(approximations)}")
         options[name] = _read_options(tab.table(name), registry.METHODS[name])
+        if name not in computed:
+            # Silently ignored, they would look as if they had shaped the results.
+            tab.error(name, "options of a method this sweep does not compute (outputs.e and "
+                      "the error_ fields ask for: "
+                      f"{', '.join(computed) or 'no approximation'}); remove them or ask "
+                      "for the method")
     tab.finish()
     return options
 
@@ -948,7 +955,7 @@ def loads(text, source=""):
     design_spec = DESIGN_KINDS[kind](design)
     outputs = _parse_outputs(root.table("outputs", required=True), design_spec)
     integrator = _parse_integrator(root.table("integrator"))
-    options = _parse_options(root.table("options"))
+    options = _parse_options(root.table("options"), outputs)
     run = root.table("run")
     chunk_size = run.get("chunk_size", lambda v: _is_int(v) and v >= 1, "an integer >= 1",
                          DEFAULT_CHUNK_SIZE)
