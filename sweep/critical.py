@@ -15,8 +15,13 @@ Above the critical scaled load ``g~_c(alpha, beta, gamma)`` (resp. damping
     the bead rebounds below the threshold and not above it (e decreases with g~ and gamma,
     reaching 0 like the square root of the distance to the threshold, SPEC section 7).
     Returns ``0.0`` where it does not rebound even at 1e-12 of the approximate threshold,
-    ``inf`` where it still rebounds at 1e12 times it (e.g. gamma at g~ = 0 for beta > alpha),
-    and NaN where the integrator could not decide (budget exhausted) during the search.
+    ``inf`` where it still rebounds at 1e12 times it, and NaN where the integrator could not
+    decide (budget exhausted) during the search. A rebound below the integrator's ``e_err``
+    (1e-9 at the defaults; ``tol`` lowers it) counts as none: the search finds where e
+    falls below that. At g~ = 0, gamma_c is the theory's where it has one (docs/creep.md,
+    section 4): ``inf`` for ``2 beta > alpha + 1`` (the bead always leaves, with e falling
+    like a power of gamma) and ``2 / sqrt(beta)`` for ``2 beta = alpha + 1`` (the linear
+    law's 2, TTI's 1.789).
 
 Owns: the no-rebound thresholds. May import: registry, :mod:`sweep.api` (the floor below).
 """
@@ -137,7 +142,20 @@ def _critical(unknown, alpha, beta, known, method, options):
         out[valid & (x == 0.0)] = np.inf
     else:
         out = _threshold(evaluate, approx, np.where(valid, 1.0, np.nan))
+        exact = _gamma_c_at_zero_load(a, be)
+        known_zero = valid & (x == 0.0) & ~np.isnan(exact)
+        out[known_zero] = exact[known_zero]
     return b.restore(out)
+
+
+def _gamma_c_at_zero_load(alpha, beta):
+    """gamma_c at g~ = 0 where the theory gives it (docs/creep.md, section 4), NaN elsewhere:
+    ``inf`` for kappa = alpha + 1 - 2 beta < 0 (the bead always leaves, with e ~ (gamma
+    beta)^(-(alpha+1)/|kappa|), which the search would take for 0 once it is below the
+    integrator's e_err), and ``2 / sqrt(beta)`` for kappa = 0 (zeta = gamma sqrt(beta) / 2 = 1:
+    e = exp(-pi zeta / sqrt(1 - zeta^2)) falls to 1e-23 before it, below any e_err)."""
+    kappa = alpha + 1.0 - 2.0 * beta
+    return np.where(kappa < 0.0, np.inf, np.where(kappa == 0.0, 2.0 / np.sqrt(beta), np.nan))
 
 
 def critical_gtilde(alpha: Any, beta: Any, gamma: Any, method: str = "approx",

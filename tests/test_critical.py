@@ -111,3 +111,19 @@ def test_out_of_domain_exponents_give_nan_in_arrays():
     assert np.isfinite(g[0]) and np.isnan(g[1])
     c = sweep.critical_gamma(1.5, np.array([0.9, 1.5]), 1.0)
     assert np.isnan(c[0]) and np.isfinite(c[1])
+
+
+def test_numeric_gamma_at_zero_load_follows_the_theory():
+    """g~ = 0 (docs/creep.md, section 4): for 2 beta > alpha + 1 the bead always leaves (SHC,
+    KK: gamma_c = inf; the bisection used to stop where e ~ 1/(gamma beta) fell below
+    e_err, 8.95e9 for SHC); for 2 beta = alpha + 1 the motion has the constant damping ratio
+    zeta = gamma sqrt(beta) / 2, so e = exp(-pi zeta / sqrt(1 - zeta^2)) > 0 exactly for
+    zeta < 1 and gamma_c = 2 / sqrt(beta) (the bisection gave 1.99641 for the linear law)."""
+    got = K.critical_gamma([1.5, 1.5, 1.0, 1.5], [2.5, 1.5, 1.0, 1.25], 0.0, method="numeric")
+    assert got[0] == got[1] == np.inf
+    assert got[2] == 2.0 and got[3] == pytest.approx(2.0 / np.sqrt(1.25), rel=1e-15)
+    zeta = 0.999 * 1.0
+    assert np.exp(-np.pi * zeta / np.sqrt(1 - zeta ** 2)) > 0.0   # still a rebound below 2
+    # A load, and kappa > 0 (Hertz-like beta = 1): still the bisection.
+    hertz = K.critical_gamma(1.5, 1.0, 0.0, method="numeric")
+    assert np.isfinite(hertz) and sweep.cor(1.5, 1.0, 1.01 * hertz, 0.0) == 0.0

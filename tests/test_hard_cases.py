@@ -280,3 +280,20 @@ def test_damping_beyond_1e240_is_decided(gtilde):
         assert np.all(np.isin(r.status, (Status.STUCK, Status.AT_REST))), (alpha, beta, r)
         # (1.2, 2.0) sticks with the undecided bound 3.7e-6 at every such gamma, 1e240 too.
         assert np.all(r.e == 0.0) and np.all(r.e_err <= 1e-5), (alpha, beta, r)
+
+
+@pytest.mark.parametrize("gamma", [1e10, 1e11, 1e12])
+def test_shc_creep_at_zero_load_leaves_and_says_so(gamma):
+    """SHC (beta = alpha + 1) at g~ = 0 always leaves, with e = 1/(gamma beta) on the slow
+    branch's straight line (docs/creep.md, section 4: exact asymptotically, to the last
+    digit from gamma ~ 100). Seen before: STUCK (e = 0, 'no rebound') with e_err 5e-6 at
+    1e11 even with tol = 1e-10, and e_err 6.7e-14 for an error of 4e-13 at 1e12 (the
+    energy left judged by 1/2 - q after a creep jump, a small difference of larger
+    numbers)."""
+    true = 1.0 / (2.5 * gamma)
+    for tol in (None, 1e-10, 1e-11, 1e-12, 1e-13):
+        r = sweep.integrate(1.5, 2.5, gamma, 0.0, tol=tol)
+        err = abs(r.e - true)
+        assert r.status in (Status.OK, Status.AT_REST), (tol, r)
+        assert err <= 2 * r.e_err + 1e-18, (tol, r, true)
+        assert err <= max(tol or TARGET, r.e_err), (tol, r, true)

@@ -273,8 +273,14 @@ def _creep_rule(c, k, u, w, r, v, e0, e_tol, phase):
     # Two estimates of the energy: 1/2 - q, whose integral carries the march's error of
     # the stop (~1e-9 at gamma = 1e10, where H ~ -1e-10 matters), and the state's own
     # v^2/2 + F(u), exact up to rounding for a bead the damper holds (inside R).
-    h = min(e0 - dissipated(u, v, r, c), 0.5 * v * v + potential(u, c)) \
-        + energy_margin(u, v, c)
+    h = 0.5 * v * v + potential(u, c)
+    if not (c.gtilde == 0.0 and k.kappa < 0.0):
+        h = min(e0 - dissipated(u, v, r, c), h)
+    # (At g~ = 0 with kappa < 0 the bead always leaves, docs/creep.md section 4: H > 0, and
+    # the state's energy, >= 0 there, is the one that resolves it. After a creep jump
+    # 1/2 - q is e0 - q, a small difference of larger numbers carrying q's error: it said
+    # SPENT (a stick) for SHC at gamma = 1e11, and 2e-27 where H = 8e-26 at 1e12.)
+    h += energy_margin(u, v, c)
     if h < 0.0:
         return SPENT, h
     if never_leaves(c, k, u, w, v, h):
@@ -478,8 +484,12 @@ def finish_step(st, c, k, u1, w1, dr, s, n, K, K2, Q, rest_tol, e_tol):
 
 @jit(inline="always")
 def out_of_budget(st, c):
-    """The :class:`Ending` of a march whose step budget is spent (BUDGET)."""
-    return _ending(BUDGET, st, st.t, st.u, st.v, dissipated(st.u, st.v, st.r, c), st.n)
+    """The :class:`Ending` of a march whose step budget is spent (BUDGET). The energy left
+    bounds e: the larger of its two estimates, 1/2 - q (q's error) and the state's own (the
+    march's), so that the bound holds whichever errs (1/2 - q alone said H < 0, e <= 0,
+    for a creep at g~ = 0 that leaves)."""
+    h = max(st.e0 - dissipated(st.u, st.v, st.r, c), 0.5 * st.v * st.v + potential(st.u, c))
+    return Ending(BUDGET, st.t, st.u, st.v, h, st.u_max, st.n, st.lw, st.lq)
 
 
 @jit(inline="always")
