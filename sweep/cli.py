@@ -22,7 +22,8 @@
 Exit status: 0 success; 1 an error: invalid configuration, refused resume or preflight,
 output locked by another run, unreadable dataset, a file system or scheduler fault; 2 bad
 arguments; 130 interrupted (the finished chunks are kept; rerun the same command to
-resume). Every error is one line on stderr naming the file, value or address and the
+resume); 141 the reader of the output left (``sweep info X | head``: nothing is said, as for
+a command killed by SIGPIPE). Every error is one line on stderr naming the file, value or address and the
 cause; ``--debug`` (before or after the subcommand) shows the traceback instead.
 ``python -m sweep`` is the same command (:mod:`sweep.__main__`).
 
@@ -35,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import signal
 import sys
 from pathlib import Path
@@ -217,7 +219,7 @@ def _cmd_info(args):
     from sweep import store
 
     try:
-        print(store.summarize(args.path))
+        text = store.summarize(args.path)
     except OSError as exc:
         print(f"sweep info: error: cannot read {args.path}: {exc.strerror or exc}",
               file=sys.stderr)
@@ -225,6 +227,7 @@ def _cmd_info(args):
     except ValueError as exc:  # a netCDF file, but not a sweep output
         print(f"sweep info: error: {exc}", file=sys.stderr)
         return 1
+    print(text)  # outside the try: a closed stdout is no fault of the file (main's concern)
     return 0
 
 
@@ -433,6 +436,8 @@ def _cmd_export(args):
                   f"direct computation on {held}: max "
                   f"{err['max_abs']:.3g} (at {w.get('material')}, v0 = {w.get('v0', 0):.4g} "
                   f"m/s, F = {w.get('F', 0):.4g} N), median {err['median_abs']:.3g}")
+    except BrokenPipeError:  # stdout closed, the dataset is fine: main() handles it
+        raise
     except (OSError, ValueError) as exc:
         print(f"sweep export: error: {args.dataset}: {exc}", file=sys.stderr)
         return 1
@@ -574,6 +579,21 @@ def _terminate(signum, frame):
     raise KeyboardInterrupt
 
 
+def _stdout_closed() -> int:
+    """Leave quietly once the reader of stdout has gone (``sweep info X | head``).
+
+    Python's own recipe (its ``signal`` docs, "Note on SIGPIPE"): stdout is pointed at
+    devnull so that the interpreter's flush at exit does not fail again and print a
+    traceback. The status is a shell's for a command killed by SIGPIPE, 128 + 13.
+    """
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # stdout is no file (embedded, captured)
+        pass
+    return 128 + getattr(signal, "SIGPIPE", 13)
+
+
 def _one_line(exc: BaseException) -> str:
     """The message of an error on one line, naming the file of an OSError."""
     if isinstance(exc, OSError) and exc.filename is not None:
@@ -613,7 +633,11 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError:  # not the main thread (embedded use): leave signals alone
             previous = None
     try:
-        return args.func(args)
+        status = args.func(args)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        return status
+    except BrokenPipeError:  # before Exception: it is an OSError, not the input's fault
+        return _stdout_closed()
     except KeyboardInterrupt:
         print("sweep: interrupted", file=sys.stderr)
         return 130
