@@ -15,14 +15,17 @@
               [--tols TOL ...] [--peers P ...] [--n-vector N] [--n-closed N] [--repeat R]
     sweep report error-model [--out FILE.npz] [--sub N] [--n-validate N]
     sweep export SCENE.nc (--csv | --npz) [-o OUT] [--variable V] [--no-check]
-    sweep example bounce [--out DIR] [--cor direct|lookup] [--table SCENE.nc]
-                         [--scene CONFIG [--material NAME]] [--height H] [--method M] [--tol T]
+    sweep example bounce [--out DIR] [--cor direct [--method M] [--tol T] |
+                         --cor lookup [--table SCENE.nc]] [--scene CONFIG [--material NAME]]
+                         [--height H] [--v-stop V]
 
 Exit status: 0 success; 1 an error: invalid configuration, refused resume or preflight,
 output locked by another run, unreadable dataset, a file system or scheduler fault; 2 bad
 arguments; 130 interrupted (the finished chunks are kept; rerun the same command to
-resume). Every error is one line on stderr naming the file, value or address and the
-cause; ``--debug`` (before or after the subcommand) shows the traceback instead.
+resume); 141 the reader of the output left (``sweep info X | head``: nothing is said, as for
+a command killed by SIGPIPE). Every error is one line on stderr naming the file, value or
+address and the cause; ``--debug`` (before or after the subcommand) shows the traceback
+instead.
 ``python -m sweep`` is the same command (:mod:`sweep.__main__`).
 
 This module owns every subcommand and all of argparse: each subparser sets ``func``, the
@@ -33,6 +36,8 @@ module of the package; the work modules are imported inside the handlers so that
 from __future__ import annotations
 
 import argparse
+import math
+import os
 import signal
 import sys
 from pathlib import Path
@@ -67,6 +72,20 @@ def _positive_float(text):
     if not value > 0:
         raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}")
     return value
+
+
+def _finite_positive(unit=""):
+    """An argparse ``type=``: a finite number > 0; ``unit`` (e.g. ``" [m]"``) goes into the
+    message, which argparse prefixes with the option's name."""
+    def convert(text):
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"must be a finite number > 0{unit}, got {text!r}")
+        return value
+    return convert
 
 
 _SIZE_UNITS = {"": 1, "k": 10 ** 3, "m": 10 ** 6, "g": 10 ** 9, "t": 10 ** 12, "p": 10 ** 15}
@@ -201,7 +220,7 @@ def _cmd_info(args):
     from sweep import store
 
     try:
-        print(store.summarize(args.path))
+        text = store.summarize(args.path)
     except OSError as exc:
         print(f"sweep info: error: cannot read {args.path}: {exc.strerror or exc}",
               file=sys.stderr)
@@ -209,6 +228,7 @@ def _cmd_info(args):
     except ValueError as exc:  # a netCDF file, but not a sweep output
         print(f"sweep info: error: {exc}", file=sys.stderr)
         return 1
+    print(text)  # outside the try: a closed stdout is no fault of the file (main's concern)
     return 0
 
 
@@ -417,6 +437,8 @@ def _cmd_export(args):
                   f"direct computation on {held}: max "
                   f"{err['max_abs']:.3g} (at {w.get('material')}, v0 = {w.get('v0', 0):.4g} "
                   f"m/s, F = {w.get('F', 0):.4g} N), median {err['median_abs']:.3g}")
+    except BrokenPipeError:  # stdout closed, the dataset is fine: main() handles it
+        raise
     except (OSError, ValueError) as exc:
         print(f"sweep export: error: {args.dataset}: {exc}", file=sys.stderr)
         return 1
@@ -442,21 +464,59 @@ def _add_export_command(sub):
     p.set_defaults(func=_cmd_export)
 
 
+def _bounce_conflict(args):
+    """The first option ``sweep example bounce`` would ignore in this combination, as a
+    message (None: none). Dropped silently, it would look as if it had counted."""
+    from sweep import registry
+
+    method = args.method or "numeric"
+    if args.material is not None and args.scene is None:
+        return ("argument --material: needs --scene (it picks a material of a scene "
+                f"config; the default bead is the report's steel ball), got {args.material!r}")
+    if args.cor == "lookup" and (args.method is not None or args.tol is not None):
+        given = "--method" if args.method is not None else "--tol"
+        return (f"argument {given}: applies to --cor direct only (a lookup table's CoR is "
+                "the numerical one)")
+    if args.cor == "direct" and args.table is not None:
+        return f"argument --table: applies to --cor lookup only, got {args.table!r}"
+    takes_tol = [m.name for m in registry.METHODS.values()
+                 if any(opt.name == "tol" for opt in m.options)]
+    if args.tol is not None and method not in takes_tol:
+        return (f"argument --tol: --method {method} takes no tol (methods with one: "
+                f"{', '.join(takes_tol)})")
+    return None
+
+
 def _cmd_bounce(args):
     from sweep import examples
 
+    conflict = _bounce_conflict(args)
+    if conflict is not None:
+        args.usage_error(conflict)  # exits 2, as argparse does for any bad argument
     material, g = examples.STEEL_BALL, 9.81
     if args.scene:
         material, g = examples.scene_material(args.scene, args.material)
+    v_hit = math.sqrt(2.0 * g * args.height)
+    if args.cor == "lookup" and args.table is None and not args.v_stop < v_hit:
+        # the table built on the fly spans [--v-stop, first impact speed]: it would be empty
+        args.usage_error(f"argument --v-stop: must be < the first impact speed {v_hit:.6g} "
+                         f"m/s with --cor lookup, got {args.v_stop!r}")
     options = {"tol": args.tol} if args.tol is not None else {}
-    res = examples.bounce_example(args.out, material, h0=args.height, g=g, source=args.cor,
-                                  table=args.table, method=args.method, v_stop=args.v_stop,
-                                  **options)
+    try:
+        res = examples.bounce_example(args.out, material, h0=args.height, g=g,
+                                      source=args.cor, table=args.table,
+                                      method=args.method or "numeric", v_stop=args.v_stop,
+                                      **options)
+    except ValueError as exc:  # what the options cannot show, e.g. a scale (2) overflow
+        print(f"sweep example bounce: error: {exc}", file=sys.stderr)
+        return 1
     print(res["summary"])
     return _print_files(res, f"files in {args.out}:")
 
 
 def _add_example_commands(sub):
+    from sweep import registry
+
     ex = sub.add_parser("example", help="worked examples (the bouncing ball)")
     exs = ex.add_subparsers(dest="example", required=True, metavar="EXAMPLE",
                             help="the example to run")
@@ -470,16 +530,20 @@ def _add_example_commands(sub):
     p.add_argument("--out", metavar="DIR", default="bounce", help="output directory")
     p.add_argument("--cor", choices=("direct", "lookup"), default="direct",
                    help="CoR per impact: sweep.cor, or a lookup table (default direct)")
-    p.add_argument("--table", metavar="SCENE.nc", help="lookup table (a scene dataset at "
-                   "F = 0 holding the material; default: built on the fly)")
+    p.add_argument("--table", metavar="SCENE.nc", help="lookup table of --cor lookup (a "
+                   "scene dataset at F = 0 holding the material; default: built on the fly)")
     p.add_argument("--scene", metavar="CONFIG", help="take the material from a scene config")
     p.add_argument("--material", metavar="NAME", help="material of --scene (default: first)")
-    p.add_argument("--height", type=float, default=1.0, help="drop height [m] (default 1)")
-    p.add_argument("--method", default="numeric", help="method of a direct CoR (e.g. auto)")
-    p.add_argument("--tol", type=float, default=None, help="tol of --method auto")
-    p.add_argument("--v-stop", type=float, default=1e-5,
+    p.add_argument("--height", type=_finite_positive(" [m]"), default=1.0,
+                   help="drop height [m] (default 1)")
+    # default None, not "numeric": --method given with --cor lookup is refused
+    p.add_argument("--method", choices=tuple(registry.METHODS), default=None,
+                   help="method of --cor direct (default numeric; e.g. auto)")
+    p.add_argument("--tol", type=_finite_positive(), default=None,
+                   help="tol of --method auto or numeric (largest abs error on e wanted)")
+    p.add_argument("--v-stop", type=_finite_positive(" [m/s]"), default=1e-5,
                    help="rest: rebound speed below this [m/s] (default 1e-5)")
-    p.set_defaults(func=_cmd_bounce)
+    p.set_defaults(func=_cmd_bounce, usage_error=p.error)
 
 
 # --------------------------------------------------------------------------- entry point
@@ -514,6 +578,21 @@ def _terminate(signum, frame):
     # SIGTERM (e.g. a batch system's time limit) unwinds like Ctrl-C: finished chunks are
     # already saved, and the half-assembled file is closed.
     raise KeyboardInterrupt
+
+
+def _stdout_closed() -> int:
+    """Leave quietly once the reader of stdout has gone (``sweep info X | head``).
+
+    Python's own recipe (its ``signal`` docs, "Note on SIGPIPE"): stdout is pointed at
+    devnull so that the interpreter's flush at exit does not fail again and print a
+    traceback. The status is a shell's for a command killed by SIGPIPE, 128 + 13.
+    """
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # stdout is no file (embedded, captured)
+        pass
+    return 128 + getattr(signal, "SIGPIPE", 13)
 
 
 def _one_line(exc: BaseException) -> str:
@@ -555,7 +634,11 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError:  # not the main thread (embedded use): leave signals alone
             previous = None
     try:
-        return args.func(args)
+        status = args.func(args)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        return status
+    except BrokenPipeError:  # before Exception: it is an OSError, not the input's fault
+        return _stdout_closed()
     except KeyboardInterrupt:
         print("sweep: interrupted", file=sys.stderr)
         return 130

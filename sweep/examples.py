@@ -25,13 +25,14 @@ import csv
 import dataclasses
 import json
 import math
+import numbers
 import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
-from sweep import api, tables
+from sweep import api, registry, tables
 from sweep.model import scale
 from sweep.reports.common import use_agg
 from sweep.sweeps import config, design, runner
@@ -142,6 +143,24 @@ def lookup_cor(material: design.Material, g: float, v_lo: float, v_hi: float,
     return cor, t.error()
 
 
+def _check_positive(name: str, value: Any, unit: str) -> None:
+    """Refuse a ``value`` that is not a finite number > 0, naming ``name``."""
+    # bool is an int to Python: a height of True is a slip, not 1 m.
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    if not (ok and math.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a finite number > 0 [{unit}], got {value!r}")
+
+
+def _check_sequence_inputs(h0: Any, g: Any, v_stop: Any, max_impacts: Any) -> None:
+    """The inputs of :func:`bounce`, checked before a sqrt or the engine meets them."""
+    _check_positive("h0", h0, "m")
+    _check_positive("g", g, "m/s^2")
+    _check_positive("v_stop", v_stop, "m/s")
+    if not (isinstance(max_impacts, numbers.Integral) and not isinstance(max_impacts, bool)
+            and max_impacts >= 1):
+        raise ValueError(f"max_impacts must be an integer >= 1, got {max_impacts!r}")
+
+
 def bounce(cor: Callable[[float], tuple[float, float, float]], material: design.Material,
            h0: float = 1.0, g: float = 9.81, v_stop: float = 1e-5, max_impacts: int = 10000,
            cor_source: str = "direct") -> BounceResult:
@@ -165,7 +184,14 @@ def bounce(cor: Callable[[float], tuple[float, float, float]], material: design.
     Returns
     -------
     BounceResult
+
+    Raises
+    ------
+    ValueError
+        ``h0``, ``g`` or ``v_stop`` not a finite number > 0, or ``max_impacts`` not an
+        integer >= 1 (the message names the parameter and its value).
     """
+    _check_sequence_inputs(h0, g, v_stop, max_impacts)
     v, t = math.sqrt(2.0 * g * h0), math.sqrt(2.0 * h0 / g)
     impacts, stop = [], f"max_impacts = {max_impacts} reached"
     for i in range(max_impacts):
@@ -230,6 +256,32 @@ def scene_material(path: str | Path, name: str | None = None) -> tuple[design.Ma
     return design.resolve_material(mats[name], spec.g), spec.g
 
 
+def _check_example_inputs(source: str, table: Any, method: str, h0: float, g: float,
+                          v_stop: float, options: dict) -> None:
+    """Refuse what :func:`bounce_example` cannot use: a bad value, or an argument that has
+    no effect with this ``source`` (silently dropped, it would look as if it had counted)."""
+    if source not in ("direct", "lookup"):
+        raise ValueError(f"source must be 'direct' or 'lookup', got {source!r}")
+    if method not in registry.METHODS:
+        raise ValueError(f"method must be one of {tuple(registry.METHODS)}, got {method!r}")
+    _check_sequence_inputs(h0, g, v_stop, 1)
+    if source == "direct":
+        if table is not None:
+            raise ValueError(f"table applies to source='lookup' only, got {table!r} with "
+                             "source='direct'")
+        registry.METHODS[method].check_options(options)  # names an unknown or bad option
+        return
+    if method != "numeric" or options:
+        raise ValueError("method and options apply to source='direct' only (the table's "
+                         f"CoR is the numerical one), got method={method!r}, "
+                         f"options={options!r} with source='lookup'")
+    v_hit = math.sqrt(2.0 * g * h0)
+    if table is None and not v_stop < v_hit:
+        # the table built on the fly spans [v_stop, first impact speed]
+        raise ValueError(f"v_stop must be < the first impact speed sqrt(2 g h0) = "
+                         f"{v_hit:.6g} m/s for a lookup table built on the fly, got {v_stop!r}")
+
+
 def bounce_example(out: str | Path = "bounce", material: design.Material = STEEL_BALL,
                    h0: float = 1.0, g: float = 9.81, source: str = "direct",
                    table: Any = None, method: str = "numeric", v_stop: float = 1e-5,
@@ -239,28 +291,42 @@ def bounce_example(out: str | Path = "bounce", material: design.Material = STEEL
 
     Parameters
     ----------
+    out : path-like
+        Output directory (created).
+    material : Material
+        The bead (resolved: ``m``, ``k``, ``gamma0``, ``alpha``, ``beta`` set).
+    h0, g, v_stop : float
+        Drop height [m], gravity [m/s^2], rest speed [m/s] (:func:`bounce`); finite, > 0.
     source : {"direct", "lookup"}
         Where each impact's CoR comes from.
     table : path-like, optional
-        Scene dataset for ``source="lookup"`` (default: built on the fly).
+        Scene dataset for ``source="lookup"`` (default: built on the fly over
+        [v_stop, sqrt(2 g h0)]); refused with ``source="direct"``.
     method, **options
-        Method of the direct computation (e.g. ``"auto"`` with ``tol``).
+        Method of the direct computation, a name of :data:`sweep.registry.METHODS`, and its
+        options (e.g. ``"auto"`` with ``tol``); with ``source="lookup"`` only the default
+        ``method="numeric"`` and no options are accepted.
 
     Returns
     -------
     dict
         ``result`` (BounceResult), ``files`` and a text ``summary``.
+
+    Raises
+    ------
+    ValueError
+        A bad value, or an argument that has no effect with this ``source``, before any
+        file is written; the message names the parameter and its value.
     """
+    _check_example_inputs(source, table, method, h0, g, v_stop, options)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     v_hi = math.sqrt(2.0 * g * h0) * (1.0 + 1e-9)
     if source == "lookup":
         cor, err = lookup_cor(material, g, v_stop, v_hi, table)
         label = f"lookup table (stated error {err['max_abs']:.2g})"
-    elif source == "direct":
-        cor, err, label = direct_cor(material, g, method, **options), None, f"direct, {method}"
     else:
-        raise ValueError(f"source must be 'direct' or 'lookup', got {source!r}")
+        cor, err, label = direct_cor(material, g, method, **options), None, f"direct, {method}"
     result = bounce(cor, material, h0, g, v_stop, cor_source=label)
     result.table_error = err
     csv_path = out / "bounce_impacts.csv"

@@ -216,3 +216,63 @@ def test_a_scene_whose_scaling_overflows_fails_validate_and_run(tmp_path, capsys
         assert len(err.splitlines()) == 1 and "RuntimeWarning" not in err, err
         assert f"{scene}: design.materials.m1: gtilde overflows" in err
     assert not (tmp_path / "s.nc").exists()
+
+
+SCENE = """
+[design]
+kind = "scene"
+v0 = [1.0, 2.0, 3.0]
+F = 0.0
+[design.materials.steel]
+law = "kk"
+m = 0.154
+k = 3.6138e10
+gamma0 = 1.5237e-6
+[outputs]
+e = ["numeric"]
+[integrator]
+steps = 16
+"""
+
+
+def _to_a_closed_pipe(argv, cwd):
+    """Run ``python -m sweep ARGV`` with stdout a pipe nobody reads (its reader closed
+    before the start: every write fails with EPIPE, as after ``| head`` has exited)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        return subprocess.run([sys.executable, "-m", "sweep"] + argv, stdout=write,
+                              stderr=subprocess.PIPE, text=True, cwd=cwd, env=env)
+    finally:
+        os.close(write)
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGPIPE"), reason="no SIGPIPE (Windows)")
+def test_a_closed_stdout_is_not_blamed_on_the_file(cfg, tmp_path):
+    # QA2 4: `sweep info kk.nc | head` said "error: cannot read kk.nc: Broken pipe".
+    (tmp_path / "s.toml").write_text(SCENE)
+    for config, out in ((cfg, "o.nc"), (tmp_path / "s.toml", "s.nc")):
+        assert cli.main(["run", str(config), "-o", str(tmp_path / out), "--quiet"]) == 0
+    for argv in (["info", "o.nc"], ["validate", str(cfg), "--no-estimate"],
+                 ["export", "s.nc", "--csv", "-o", "s.csv"]):
+        res = _to_a_closed_pipe(argv, tmp_path)
+        # silent, with the status of a command killed by SIGPIPE (128 + 13), as `cat` has
+        assert (res.returncode, res.stderr) == (128 + signal.SIGPIPE, ""), argv
+    assert (tmp_path / "s.csv").stat().st_size > 0      # the export itself was done
+
+
+class _ClosedStdout:
+    """A stdout whose reader has gone: every write and flush fails with EPIPE."""
+
+    def write(self, text):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    flush = write
+
+
+def test_a_closed_stdout_in_process_returns_quietly(monkeypatch, capsys, tmp_path):
+    monkeypatch.setattr("sweep.store.summarize", lambda path: "a summary")
+    monkeypatch.setattr(sys, "stdout", _ClosedStdout())
+    assert cli.main(["info", str(tmp_path / "any.nc")]) == 128 + 13   # 13: SIGPIPE
+    assert capsys.readouterr().err == ""

@@ -1,11 +1,13 @@
 """The bouncing-ball example (sweep.examples, ``sweep example bounce``)."""
 import csv
 import math
+import re
 
 import numpy as np
 import pytest
 
 from sweep import examples
+from sweep import cli
 from sweep.cli import main
 
 
@@ -52,3 +54,85 @@ def test_cli_bounce_with_auto(tmp_path, capsys):
                  "--tol", "1e-3", "--height", "0.5"]) == 0
     out = capsys.readouterr().out
     assert "impacts" in out and (tmp_path / "bounce_height.png").exists()
+
+
+# --------------------------------------------------------------------------- bad input (QA2 §2)
+
+@pytest.mark.parametrize("extra, expected", [
+    (["--height", "-1"], "argument --height: must be a finite number > 0 [m], got '-1'"),
+    (["--height", "0"], "argument --height: must be a finite number > 0 [m], got '0'"),
+    (["--height", "nan"], "argument --height: must be a finite number > 0 [m], got 'nan'"),
+    (["--height", "inf"], "argument --height: must be a finite number > 0 [m], got 'inf'"),
+    (["--v-stop", "-1"], "argument --v-stop: must be a finite number > 0 [m/s], got '-1'"),
+    (["--v-stop", "nan"], "argument --v-stop: must be a finite number > 0 [m/s], got 'nan'"),
+    (["--tol", "0"], "argument --tol: must be a finite number > 0, got '0'"),
+    (["--method", "bogus"], "argument --method: invalid choice: 'bogus'"),
+    (["--method", "sp", "--tol", "1e-4"], "argument --tol: --method sp takes no tol"),
+    (["--material", "nope"], "argument --material: needs --scene"),
+    (["--cor", "lookup", "--method", "auto"], "argument --method: applies to --cor direct"),
+    (["--cor", "lookup", "--tol", "1e-3"], "argument --tol: applies to --cor direct"),
+    (["--table", "t.nc"], "argument --table: applies to --cor lookup only, got 't.nc'"),
+    (["--cor", "lookup", "--v-stop", "10"],
+     "argument --v-stop: must be < the first impact speed 4.42945 m/s"),  # sqrt(2 9.81 1)
+])
+def test_cli_bounce_refuses_bad_options_in_one_line_naming_them(tmp_path, capsys, extra,
+                                                                expected):
+    # These ran with a wrong input, or ended in "unexpected ValueError: math domain error".
+    out = tmp_path / "bx"
+    with pytest.raises(SystemExit) as info:
+        main(["example", "bounce", "--out", str(out)] + extra)
+    err = capsys.readouterr().err.strip()
+    assert info.value.code == 2 and len(err.splitlines()) == 1, err
+    assert err.startswith("sweep example bounce: error: ") and expected in err, err
+    assert "unexpected" not in err and not out.exists()
+
+
+@pytest.mark.parametrize("extra", [
+    [], ["--tol", "1e-4"], ["--method", "auto", "--tol", "1e-3"], ["--method", "sp"],
+    ["--cor", "lookup", "--table", "t.nc", "--v-stop", "10"],
+    ["--scene", "s.toml", "--material", "glass"], ["--height", "1e-3", "--v-stop", "1"],
+])
+def test_cli_bounce_accepts_the_combinations_that_count(extra):
+    # numeric takes a tol too (sweep.registry): --tol is refused only where nothing uses it.
+    args = cli.build_parser().parse_args(["example", "bounce"] + extra)
+    assert cli._bounce_conflict(args) is None
+
+
+def _never(v):
+    raise AssertionError("the engine was called with a bad input")
+
+
+@pytest.mark.parametrize("kw, expected", [
+    (dict(h0=-1.0), "h0 must be a finite number > 0 [m], got -1.0"),
+    (dict(h0=0.0), "h0 must be a finite number > 0 [m], got 0.0"),
+    (dict(h0=math.nan), "h0 must be a finite number > 0 [m], got nan"),
+    (dict(h0=True), "h0 must be a finite number > 0 [m], got True"),
+    (dict(g=math.inf), "g must be a finite number > 0 [m/s^2], got inf"),
+    (dict(v_stop=-1.0), "v_stop must be a finite number > 0 [m/s], got -1.0"),
+    (dict(v_stop=math.nan), "v_stop must be a finite number > 0 [m/s], got nan"),
+    (dict(max_impacts=0), "max_impacts must be an integer >= 1, got 0"),
+    (dict(max_impacts=2.5), "max_impacts must be an integer >= 1, got 2.5"),
+])
+def test_bounce_names_a_bad_parameter(kw, expected):
+    with pytest.raises(ValueError) as info:
+        examples.bounce(_never, examples.STEEL_BALL, **kw)
+    assert str(info.value) == expected
+
+
+@pytest.mark.parametrize("kw, expected", [
+    (dict(h0=-1.0), "h0 must be a finite number > 0 [m], got -1.0"),
+    (dict(v_stop=math.nan), "v_stop must be a finite number > 0 [m/s], got nan"),
+    (dict(method="bogus"), "method must be one of ('numeric', "),
+    (dict(method="sp", tol=1e-4), "unknown option 'tol' for method 'sp'"),
+    (dict(method="auto", tol=-1.0), "tol must be a number > 0"),
+    (dict(source="nope"), "source must be 'direct' or 'lookup', got 'nope'"),
+    (dict(source="lookup", method="auto"), "method and options apply to source='direct'"),
+    (dict(source="lookup", tol=1e-3), "method and options apply to source='direct'"),
+    (dict(table="t.nc"), "table applies to source='lookup' only, got 't.nc'"),
+    (dict(source="lookup", v_stop=5.0), "v_stop must be < the first impact speed"),
+])
+def test_bounce_example_refuses_before_writing(tmp_path, kw, expected):
+    out = tmp_path / "out"
+    with pytest.raises(ValueError, match="^" + re.escape(expected)):
+        examples.bounce_example(out, **kw)
+    assert not out.exists()

@@ -258,3 +258,30 @@ def test_errors_found_when_the_design_is_built_name_the_file(tmp_path):
     path.write_text(pulling)
     with pytest.raises(config.ConfigError, match=f"^{path}: design.materials.steel: g"):
         runner.run(path, tmp_path / "out.nc", quiet=True)
+
+
+# The grid's rule (tests/test_files.py, README): a list is "irregular", one value "single".
+@pytest.mark.parametrize("axis, spacing", [
+    ("1.5", "single"), ("[1.5]", "single"), ("{start = 1.5, stop = 1.5, num = 1}", "single"),
+    ("[2.0, 0.5, 1.0, 0.3]", "irregular"), ("[0.5, 1.0, 1.5]", "irregular"),
+    ("{values = [0.5, 1.0]}", "irregular"),
+    ("{start = 0.5, stop = 2.0, num = 3}", "linear"),
+    ("{start = 0.5, stop = 2.0, num = 3, spacing = \"log\"}", "log"),
+])
+@pytest.mark.parametrize("name", ["v0", "F"])
+def test_scene_axes_are_spaced_as_grid_axes(name, axis, spacing):
+    other = "F = 0.0" if name == "v0" else "v0 = 1.0"
+    text = PROPERTIES.replace("v0 = 1.0\nF = 0.0", f"{name} = {axis}\n{other}")
+    assert dict(config.loads(text).design.spacing)[name] == spacing
+
+
+def test_an_unsorted_scene_list_is_written_irregular(tmp_path):
+    # QA2 3: this file said spacing = "linear" for [2.0, 0.5, 1.0, 0.3].
+    text = SCENE.replace('v0 = {start = 0.1, stop = 5.0, num = 7, spacing = "log"}',
+                         "v0 = [2.0, 0.5, 1.0, 0.3]").replace("F = [0.0, 1.0]",
+                                                                "F = [10.0, 0.0, 5.0]")
+    out = tmp_path / "uns.nc"
+    runner.run(config.loads(text, source="uns.toml"), out, quiet=True)
+    with xr.open_dataset(out) as ds:
+        assert list(ds.v0.values) == [2.0, 0.5, 1.0, 0.3]
+        assert ds.v0.attrs["spacing"] == "irregular" and ds.F.attrs["spacing"] == "irregular"

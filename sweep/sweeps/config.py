@@ -496,7 +496,9 @@ class MaterialSpec:
 class SceneSpec:
     """A physical scene: materials x impact speeds v0 [m/s] x loads F [N] under gravity g.
 
-    ``spacing`` holds ``"log"`` or ``"linear"`` per axis (how the values were given).
+    ``spacing`` holds, per axis, how the values were given, as a grid's axes do
+    (:func:`_axis_spacing`): ``"linear"`` or ``"log"`` (a range), ``"irregular"`` (a list)
+    or ``"single"`` (one value).
     """
 
     materials: tuple
@@ -651,10 +653,10 @@ def _refuse_unused(tab, props, damping_model):
 
 
 def _scene_axis(design, name):
+    """A scene axis and its spacing, by the grid's rule (:func:`_axis_spacing`): a list is
+    "irregular" (it may be unsorted or uneven: calling it "linear" was wrong metadata)."""
     values = _grid_axis(design, name)
-    raw = design.data[name]
-    spacing = raw.get("spacing", "linear") if isinstance(raw, dict) else "linear"
-    return values, spacing
+    return values, _axis_spacing(design.data[name], values)
 
 
 def _parse_scene(design):
