@@ -59,14 +59,16 @@ class Status(enum.IntEnum):
     #: The bead detached (u = 0 with v < 0): ``e = -v`` at detachment.
     OK = 0
     #: The bead does not rebound (v = 0 with 0 < u <= u-bar in phase 3, or its energy fell
-    #: below the floor level, from which it can never return to u = 0): ``e = 0``.
+    #: below the floor level, from which it can never return to u = 0): ``e = 0``. Where
+    #: ``e_err > 0`` the march could not exclude a rebound up to ``e_err`` (near grazing).
     STUCK = 1
-    #: Converged to rest, ``max(|u - u-bar|, |v|) < rest_tol`` (report, Sec. 3): ``e = 0``.
+    #: Converged to rest, ``max(|u - u-bar|, |v|) < rest_tol`` (report, Sec. 3), or a creep
+    #: that never leaves or leaves with e below ``e_err``: ``e = 0``.
     AT_REST = 2
     #: The step budget ran out before the outcome was decided. ``e = sqrt(2 H)``, the bound
     #: on the rebound speed set by the energy still available, not a converged value.
     BUDGET_EXHAUSTED = 3
-    #: Invalid input (alpha < 1, beta < 1, gamma < 0, g~ < 0, non-finite, or an
+    #: Invalid input (alpha < 1, beta < 1, gamma < 0 or > 1e300, g~ < 0, non-finite, or an
     #: approximation used outside its domain): ``e = NaN``.
     INVALID = 4
 
