@@ -59,9 +59,9 @@ class Law(NamedTuple):
 def in_domain(alpha, beta, gamma, gtilde):
     """The point lies in :data:`sweep.registry.PARAMETERS` (finite, above the minima, gamma
     up to its maximum)."""
-    return (alpha >= _ALPHA_MIN and beta >= _BETA_MIN and gamma >= _GAMMA_MIN
-            and gamma <= _GAMMA_MAX and gtilde >= _GTILDE_MIN and math.isfinite(alpha) and math.isfinite(beta)
-            and math.isfinite(gamma) and math.isfinite(gtilde))
+    return (alpha >= _ALPHA_MIN and beta >= _BETA_MIN and _GAMMA_MIN <= gamma <= _GAMMA_MAX
+            and gtilde >= _GTILDE_MIN and math.isfinite(alpha) and math.isfinite(beta)
+            and math.isfinite(gtilde))
 
 
 @jit()

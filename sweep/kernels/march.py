@@ -272,14 +272,14 @@ def _creep_rule(c, k, u, w, r, v, e0, e_tol, phase):
     by. ``e0``: the energy when q was last zero."""
     # Two estimates of the energy: 1/2 - q, whose integral carries the march's error of
     # the stop (~1e-9 at gamma = 1e10, where H ~ -1e-10 matters), and the state's own
-    # v^2/2 + F(u), exact up to rounding for a bead the damper holds (inside R).
+    # v^2/2 + F(u), exact up to rounding for a bead the damper holds (inside R); the
+    # smaller judges. At g~ = 0 with kappa < 0 the bead always leaves (docs/creep.md,
+    # section 4): H > 0, and the state's energy, >= 0 there, judges alone. After a creep
+    # jump 1/2 - q is e0 - q, a small difference of larger numbers carrying q's error: it
+    # said SPENT (a stick) for SHC at gamma = 1e11, and 2e-27 where H = 8e-26 at 1e12.
     h = 0.5 * v * v + potential(u, c)
     if not (c.gtilde == 0.0 and k.kappa < 0.0):
         h = min(e0 - dissipated(u, v, r, c), h)
-    # (At g~ = 0 with kappa < 0 the bead always leaves, docs/creep.md section 4: H > 0, and
-    # the state's energy, >= 0 there, is the one that resolves it. After a creep jump
-    # 1/2 - q is e0 - q, a small difference of larger numbers carrying q's error: it said
-    # SPENT (a stick) for SHC at gamma = 1e11, and 2e-27 where H = 8e-26 at 1e12.)
     h += energy_margin(u, v, c)
     if h < 0.0:
         return SPENT, h
