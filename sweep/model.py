@@ -152,7 +152,20 @@ def _scaled(args: dict, load: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         gtilde = np.where(redo, np.exp(log), gtilde)
     _refuse_non_finite("gamma", gamma, args)
     _refuse_non_finite("gtilde", gtilde, args)
+    _refuse_outside_domain("gamma", gamma, args)
     return gamma, gtilde
+
+
+def _refuse_outside_domain(quantity: str, value: np.ndarray, args: dict) -> None:
+    """Raise ``ValueError`` at the first finite element of ``value`` outside the domain of
+    :data:`sweep.registry.PARAMETERS` (gamma above its maximum), naming the inputs: the
+    integrator would mark every such point INVALID and a run would exit 0 with NaNs."""
+    parameter = registry.PARAMETERS[quantity]
+    bad = ~parameter.ok(value)
+    if bad.any():
+        got, at = _at(quantity, value, bad, args)
+        raise ValueError(f"{quantity} = {got!r} at {at}: the scaled {quantity} must be "
+                         f"{parameter.rule}")
 
 
 def _ufunc(scalar):

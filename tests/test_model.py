@@ -119,3 +119,12 @@ def test_scale_refuses_non_numbers_naming_them(value):
     with pytest.raises(ValueError, match=r"^m must be a real number .*got " + repr(value)
                        .replace("(", r"\(").replace(")", r"\)").replace("+", r"\+")):
         sweep.scale(value, 3.6138e10, 1.5237e-6, 1.0, 1.5, 1.5)
+
+
+def test_scale_refuses_a_gamma_beyond_the_domain():
+    # gamma = gamma0 v0^(1/5) (k/m)^(2/5) = 1e305 for m = k = v0 = 1: a double, but above
+    # the domain's 1e300 (the damping rate overflows there); the integrator would mark it
+    # INVALID and a scene run would have exited 0 with NaNs.
+    with pytest.raises(ValueError, match=r"^gamma = 1e\+305 at gamma0=1e\+305.*<= 1e300"):
+        sweep.scale(m=1.0, k=1.0, gamma0=1e305, v0=1.0, **KK)
+    assert sweep.scale(m=1.0, k=1.0, gamma0=1e299, v0=1.0, **KK)[0] == pytest.approx(1e299)
