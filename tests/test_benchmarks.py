@@ -210,3 +210,18 @@ def test_approx_throughput_script_times_every_closed_form():
         # KK points of the core draw: every closed form defined, e in (0, 1).
         assert "invalid 0)" in line, line
         assert 0.0 < float(line.split("mean e ")[1].split(",")[0]) < 1.0, line
+
+
+def test_hp_audit_script_finds_no_violation_on_a_small_draw():
+    script = ROOT / "benchmarks" / "hp_audit.py"
+    res = subprocess.run([sys.executable, str(script), "--n", "6", "--families", "d", "e",
+                          "--seed", "3"], cwd=ROOT, capture_output=True, text=True,
+                         timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    lines = res.stdout.splitlines()
+    assert len(lines) == 2 * 4                    # 2 families x 4 settings
+    for line in lines:
+        # Light damping under huge loads, and alpha or beta = 1 / beta = alpha + 1: e_err
+        # bounds the extended-precision reference's error at every setting.
+        assert "'bound': 0, 'tol': 0, 'stick': 0, 'rebound': 0, 'nan': 0" in line, line
+        assert float(line.rsplit("elsewhere ", 1)[1]) < 2.0, line
