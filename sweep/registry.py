@@ -39,7 +39,7 @@ import numpy as np
 __all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "MATERIAL",
            "MATERIAL_NAME", "MODELS", "Option", "Method", "METHODS", "Field", "FIELDS",
            "SERVED_BY", "valid_points", "check_scalar", "check_array", "real_array",
-           "register_method",
+           "short_repr", "register_method",
            "unregister_method", "register_field", "unregister_field", "method",
            "approximations", "composites", "method_fields", "integrator_fields",
            "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX", "DEVICES"]
@@ -242,8 +242,9 @@ def _message(name: str, parameter: Parameter, value: np.ndarray) -> str | None:
     return None
 
 
-def _short(value: Any, width: int = 60) -> str:
-    # One readable line whatever the value holds (a long array, a multi-line repr).
+def short_repr(value: Any, width: int = 60) -> str:
+    """``repr(value)`` on one line of at most ``width`` characters, for error messages
+    (a long array, a multi-line repr)."""
     text = " ".join(repr(value).split())
     return text if len(text) <= width else text[:width - 3] + "..."
 
@@ -278,7 +279,7 @@ def real_array(name: str, value: Any) -> np.ndarray:
         what = (f"dtype {value.dtype}" if isinstance(value, np.ndarray)
                 else type(value).__name__)
         raise ValueError(f"{name} must be a real number (int or float) or an array of them, "
-                         f"got {_short(value)} ({what})")
+                         f"got {short_repr(value)} ({what})")
     return arr.astype(np.float64, copy=False)
 
 

@@ -151,12 +151,6 @@ def _is_number(v):
     return (_is_int(v) or isinstance(v, float)) and math.isfinite(v)
 
 
-def _short(value, width=80):
-    # Error messages stay one readable line whatever the offending value holds.
-    text = " ".join(repr(value).split())
-    return text if len(text) <= width else text[:width - 3] + "..."
-
-
 class _Table:
     """A TOML table being read: tracks its dotted path and which keys were consumed.
 
@@ -180,7 +174,7 @@ class _Table:
 
     def error(self, name, message, value=dataclasses.MISSING):
         where = f"{self.source}: " if self.source else ""
-        got = "" if value is dataclasses.MISSING else f", got {_short(value)}"
+        got = "" if value is dataclasses.MISSING else f", got {registry.short_repr(value, 80)}"
         raise ConfigError(f"{where}{self.key(name)}: {message}{got}")
 
     def has(self, name):
