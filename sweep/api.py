@@ -172,16 +172,6 @@ def _undefined_raise(m: registry.Method, b: Broadcast, checked: dict[str, Any]) 
                      "leaves double precision there")
 
 
-def _refuse_unknown(m: registry.Method, options: dict[str, Any]) -> None:
-    """The integration's options are :func:`integrate`'s keywords: refuse any other with
-    the message :meth:`~sweep.registry.Method.check_options` gives, not a TypeError."""
-    allowed = [opt.name for opt in m.options] + ["parallel"]
-    for key in options:
-        if key not in allowed:
-            raise ValueError(f"unknown option {key!r} for method {m.name!r}; "
-                             f"allowed: {', '.join(allowed)}")
-
-
 def cor_fields(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
                **options: Any) -> dict[str, Any]:
     """Every per-point output of a method: ``e``, ``status`` and its own fields.
@@ -196,7 +186,9 @@ def cor_fields(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "nu
     """
     m = registry.method(method)
     if m.integrates:
-        _refuse_unknown(m, options)
+        # integrate's keywords: any other is named as the approximations name it, not by
+        # Python's TypeError.
+        m.refuse_unknown(options, extra=("parallel",))
         r = integrate(alpha, beta, gamma, gtilde, **options)
         return {f.name: getattr(r, f.name) for f in dataclasses.fields(r)}
     # Validate every option, but pass the kernel only those given: it knows its defaults,

@@ -411,6 +411,16 @@ class Method:
                 return opt
         raise KeyError(name)
 
+    def refuse_unknown(self, keys: Any, extra: tuple[str, ...] = ()) -> None:
+        """Raise ``ValueError`` (one line naming it and the allowed ones) for the first of
+        ``keys`` that is neither an option nor one of the caller's own ``extra`` keywords
+        (e.g. ``parallel``)."""
+        allowed = [opt.name for opt in self.options] + list(extra)
+        for key in keys:
+            if key not in allowed:
+                raise ValueError(f"unknown option {key!r} for method {self.name!r}; "
+                                 f"allowed: {', '.join(allowed) or 'none'}")
+
     def check_options(self, options: Mapping[str, Any]) -> dict[str, Any]:
         """Validate keyword options; returns them with defaults filled in.
 
@@ -419,12 +429,8 @@ class Method:
         ValueError
             Unknown option, or a value its rule rejects (one line naming it).
         """
+        self.refuse_unknown(options)
         known = {opt.name: opt for opt in self.options}
-        for key in options:
-            if key not in known:
-                allowed = ", ".join(known) or "none"
-                raise ValueError(f"unknown option {key!r} for method {self.name!r}; "
-                                 f"allowed: {allowed}")
         out = {}
         for key, opt in known.items():
             value = options.get(key)
