@@ -496,7 +496,7 @@ def _cmd_bounce(args):
     material, g = examples.STEEL_BALL, 9.81
     if args.scene:
         material, g = examples.scene_material(args.scene, args.material)
-    v_hit = math.sqrt(2.0 * g * args.height)
+    v_hit = examples.first_impact_speed(args.height, g)
     if args.cor == "lookup" and args.table is None and not args.v_stop < v_hit:
         # the table built on the fly spans [--v-stop, first impact speed]: it would be empty
         args.usage_error(f"argument --v-stop: must be < the first impact speed {v_hit:.6g} "

@@ -143,6 +143,12 @@ def lookup_cor(material: design.Material, g: float, v_lo: float, v_hi: float,
     return cor, t.error()
 
 
+def first_impact_speed(h0: float, g: float) -> float:
+    """Speed [m/s] of a bead dropped from ``h0`` [m] at its first impact, ``sqrt(2 g h0)``
+    (``g`` [m/s^2]): the top of the speeds a bounce sequence meets."""
+    return math.sqrt(2.0 * g * h0)
+
+
 def _check_positive(name: str, value: Any, unit: str) -> None:
     """Refuse a ``value`` that is not a finite number > 0, naming ``name``."""
     # bool is an int to Python: a height of True is a slip, not 1 m.
@@ -192,7 +198,7 @@ def bounce(cor: Callable[[float], tuple[float, float, float]], material: design.
         integer >= 1 (the message names the parameter and its value).
     """
     _check_sequence_inputs(h0, g, v_stop, max_impacts)
-    v, t = math.sqrt(2.0 * g * h0), math.sqrt(2.0 * h0 / g)
+    v, t = first_impact_speed(h0, g), math.sqrt(2.0 * h0 / g)
     impacts, stop = [], f"max_impacts = {max_impacts} reached"
     for i in range(max_impacts):
         e, gamma, gtilde = cor(v)
@@ -275,7 +281,7 @@ def _check_example_inputs(source: str, table: Any, method: str, h0: float, g: fl
         raise ValueError("method and options apply to source='direct' only (the table's "
                          f"CoR is the numerical one), got method={method!r}, "
                          f"options={options!r} with source='lookup'")
-    v_hit = math.sqrt(2.0 * g * h0)
+    v_hit = first_impact_speed(h0, g)
     if table is None and not v_stop < v_hit:
         # the table built on the fly spans [v_stop, first impact speed]
         raise ValueError(f"v_stop must be < the first impact speed sqrt(2 g h0) = "
@@ -321,7 +327,7 @@ def bounce_example(out: str | Path = "bounce", material: design.Material = STEEL
     _check_example_inputs(source, table, method, h0, g, v_stop, options)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    v_hi = math.sqrt(2.0 * g * h0) * (1.0 + 1e-9)
+    v_hi = first_impact_speed(h0, g) * (1.0 + 1e-9)
     if source == "lookup":
         cor, err = lookup_cor(material, g, v_stop, v_hi, table)
         label = f"lookup table (stated error {err['max_abs']:.2g})"
