@@ -12,7 +12,7 @@ every point once (no refinement) and compares with the integrator at 500 steps a
   e_err, and the largest actual error among the points left unrefined, over tol (must stay
   below 1);
 * at fixed resolutions 16 to 192: the median and largest actual error over e_err, which
-  should not fall with the resolution (``sweep.kernels.outcome.KAPPA_STEPS``).
+  should not fall with the resolution (``sweep.kernels.balance.KAPPA_STEPS``).
 """
 import argparse
 

@@ -7,9 +7,9 @@ references (issue 10, item 1).
   (gamma = 10^U(-4, -0.5), g~ = 10^U(-3, 1)).
 * The first march's ``e_err`` is an upper bound at every resolution, and its
   pessimism does not grow with the resolution: the summed embedded estimates fall one order
-  slower than the march's error, which ``sweep.kernels.outcome.KAPPA_STEPS`` accounts for;
+  slower than the march's error, which ``sweep.kernels.balance.KAPPA_STEPS`` accounts for;
   at the coarsest resolutions (tol >= 5e-6: 8 steps) it is widened
-  (``sweep.kernels.outcome.COARSE_STEPS``), checked on points a wide draw found short.
+  (``sweep.kernels.balance.COARSE_STEPS``), checked on points a wide draw found short.
 """
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 import reference
+import reference_hp
 import sweep
 
 #: Errors of the references themselves (exact to rounding; DOP853 at rtol 1e-13).
@@ -74,7 +75,7 @@ def test_first_march_estimate_keeps_its_room_at_every_resolution():
 
 # Points of a wide draw (2026-12-02) that came back beyond tol = 1e-5 with an e_err within
 # it, from one march at the error model's coarsest resolution (8 steps), before the
-# estimate was widened there (sweep.kernels.outcome.COARSE_STEPS).
+# estimate was widened there (sweep.kernels.balance.COARSE_STEPS).
 COARSE = [(1.0, 2.5, 0.6891122748739117, 0.0009233754938883981),
           (1.0, 2.9275795917930654, 0.5868090013024987, 0.0),
           (1.0, 2.6074397307181516, 0.65537791340707, 0.0)]
@@ -97,3 +98,22 @@ def test_first_march_estimate_is_a_bound_at_the_coarsest_resolution():
         ref = reference.dop853_cor(alpha, beta, gamma, gtilde)
         r = sweep.integrate(alpha, beta, gamma, gtilde, steps=8.0, refine=False)
         assert abs(float(r.e) - ref.e) <= float(r.e_err)
+
+
+# Heavily damped KK points of benchmarks/damped.py's draw (gamma = 10^U(0, 2)) that stick.
+# The creep rule stops such a bead as soon as its energy H goes below 0, where the balance
+# cannot tell a stick from a rebound (|H| < dq); the undecided bound sqrt(2 dq) exceeded
+# tol = 1e-6 and sent them to refinement at 10-11 times the steps of one march.
+DAMPED_STICKS = [(1.5, 1.5, 8.951374768950666, 0.0021258464353617703),
+                 (1.5, 1.5, 12.624545807034497, 0.0014380768780133228),
+                 (1.5, 1.5, 9.123144178326326, 0.0032537860429355846)]
+
+
+@pytest.mark.parametrize("alpha, beta, gamma, gtilde", DAMPED_STICKS)
+def test_a_certain_stick_is_decided_by_one_march(alpha, beta, gamma, gtilde):
+    ref = reference_hp.solve(alpha, beta, gamma, gtilde)
+    assert ref["status"] == reference_hp.STUCK
+    r = sweep.integrate(alpha, beta, gamma, gtilde, tol=1e-6)
+    first = sweep.integrate(alpha, beta, gamma, gtilde, tol=1e-6, refine=False)
+    assert float(r.e) == 0.0 and bool(r.sticks) and float(r.e_err) == 0.0
+    assert int(r.n_steps) == int(first.n_steps)

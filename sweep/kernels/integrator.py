@@ -48,7 +48,8 @@ from sweep.kernels._parallel import map_blocks, parallel_allowed
 from sweep.kernels.contact import in_domain, make_law
 from sweep.kernels.lanes import N_ENDING, ending_at, march_lanes
 from sweep.kernels.march import march
-from sweep.kernels.outcome import ROUNDING, decide
+from sweep.kernels.balance import ROUNDING
+from sweep.kernels.outcome import decide
 from sweep.kernels.regimes import creeps_from_start, deep_well, linear_overdamped, undamped
 from sweep.kernels.stepsize import policy, resolution
 from sweep.registry import METHODS, Status, kernel_fields

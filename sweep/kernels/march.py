@@ -31,7 +31,7 @@ The march reports only *where* it ended (:class:`Ending`: exit, trough, energy s
 budget, with the state and q there); :mod:`sweep.kernels.outcome` decides what that means
 for e.
 
-Owns: stepping through the phases and locating the events. May import: contact, stepper,
+Owns: stepping through the phases and locating the events. May import: balance, contact, stepper,
 stepsize, events.
 """
 from __future__ import annotations
@@ -42,9 +42,10 @@ from typing import NamedTuple
 import numpy as np
 
 from sweep.kernels._jit import jit
+from sweep.kernels.balance import q_error
 from sweep.kernels.contact import (accel, damping_rate, damping_ratio, dissipated,
                                    elastic_frequency, make_law, potential, ppow_called,
-                                   rhs_called, velocity)
+                                   rhs_called, velocity, well_depth)
 from sweep.kernels.creep import (ROUNDING_V, creep_constants, energy_margin, jump,
                                  near_slow_branch, never_leaves)
 from sweep.kernels.events import ON_U, ON_V, locate
@@ -60,6 +61,13 @@ __all__ = ["Ending", "State", "march", "march_point", "start", "finish_step", "a
 # Relative roundoff in the dissipated energy q (a sum of positive terms): the energy rule
 # waits until q exceeds the initial energy 1/2 by more than it.
 _ENERGY_ROUNDOFF = 1e-12
+# Steps per unit of resolution (steps per half period) up to which a creeping bead's march
+# goes on past the creep rule's stick until it is certain (_stick_doubt). Heavily damped
+# draws at tol = 1e-6 (gamma = 10^U(0, 2)) make it certain within 20-100 times the
+# resolution, a third of what refining the undecided bound cost (KK: 120.5 -> 65.0 mean
+# steps; 64: 74.5); a bead creeping for ever (gamma = 1e12) would go on to the budget,
+# which _worth_going_on foresees (the hard cases' huge_gamma set: 50,162 -> 43,231 steps).
+_SURE_STEPS = 128.0
 # The detachment's Newton iteration stops once a correction is within 4 ulps of the time d:
 # u at d carries rounding, so smaller corrections are noise, and a bound below one ulp of
 # d (2e-16 d, as before) let the iteration swing between two neighbouring floats up to
@@ -230,6 +238,32 @@ def _cannot_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
         return False
     # w - v cancels in deep wells (both ~ the swing speed): confirm with the power itself.
     return dissipated(u, v, r, c) > q_stuck
+
+
+@jit(inline="always")
+def _stick_doubt(st, c):
+    """How much energy ``H = 1/2 - q`` must still lose for the energy rule's stick to be
+    beyond the march's error: ``h + dq`` (:func:`sweep.kernels.balance.q_error`), negative
+    where it is, or where the well is too shallow for it ever to be (its floor ``V(u-bar)``
+    within dq of 0)."""
+    # Stopped at the crossing itself (H ~ 0-), the decision said "cannot tell" and bounded
+    # e by sqrt(2 dq): at tol=1e-6 a certain stick was refined to ~10 times its steps for
+    # that bound (46% of the steps of heavily damped KK draws), where a few steps more of
+    # this march, H still falling, decide it.
+    h = st.e0 - dissipated(st.u, st.v, st.r, c)
+    dq = q_error(c, st.u, st.v, h, st.lq, st.n, st.p.steps)
+    return -1.0 if well_depth(c.alpha, c.gtilde) <= dq else h + dq
+
+
+@jit(inline="always")
+def _worth_going_on(st, doubt):
+    """A creeping bead's march can lose ``doubt`` more energy within :data:`_SURE_STEPS`
+    times the resolution: under the damping cap a step dissipates at most ``pi v^2 /
+    steps`` (:func:`sweep.kernels.stepsize.damping_step`), and the creep slows down."""
+    left = _SURE_STEPS * st.p.steps - st.n
+    if left <= 0.0:
+        return False
+    return not st.p.capped or doubt * st.p.steps < left * math.pi * st.v * st.v
 
 
 #: How a march ended (the geometry); :func:`sweep.kernels.outcome.decide` reads it.
@@ -418,6 +452,10 @@ def _creep_rules(st, c, k, K, e_tol):
         # falls (docs/creep.md, section 7).
         st = _with_policy(st, local_policy(p))
     kind, h = _creep_rule(c, k, u, w, r, v, st.e0, e_tol, st.phase)
+    if kind == SPENT:
+        doubt = _stick_doubt(st, c)
+        if doubt >= 0.0 and _worth_going_on(st, doubt):
+            kind = -1       # H still falls: a few steps more make the stick certain
     if kind == BUDGET:
         u, w, r, v, t, e0 = _jumped(c, k, u, st.t, K)
         if not (math.isfinite(t) and v != 0.0):
@@ -454,7 +492,8 @@ def _rules(st, c, k, K, rest_tol, e_tol):
         if st.phase == 1:
             st = _with_umax(st, max(st.u, k.ubar))
         return st, _ending(REST, st, st.t, st.u, st.v, dissipated(st.u, st.v, st.r, c), st.n)
-    if _cannot_return(st.u, st.w, st.r, st.v, st.phase, st.energy_in_phase1, st.q_stuck, c):
+    if _cannot_return(st.u, st.w, st.r, st.v, st.phase, st.energy_in_phase1, st.q_stuck, c) \
+            and _stick_doubt(st, c) < 0.0:
         return st, _ending(SPENT, st, st.t, st.u, st.v, dissipated(st.u, st.v, st.r, c), st.n)
     return st, Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
 

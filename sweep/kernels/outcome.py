@@ -11,12 +11,12 @@ leaves the floor iff H is still >= 0 when it gets back to u = 0, and then ``e^2 
   load's well, ``|V(u-bar)|``: near the rim of a deep well the geometry can turn back short
   of the floor (a trough) or overshoot it while q is still exact to ~1e-13.
 * The *energy defect* ``D = v^2/2 + V(u) - (1/2 - q)`` vanishes along the true motion; at the
-  end of the march it measures the march's error. Measured against the linear law's closed
-  form and high-precision references, the error of q is ``|D| / swing2`` to within a small
-  factor, ``swing2 = 1 + 2 |V(u-bar)|`` (the square of the largest speed of the swing), and
-  that of the velocity is up to ``|D| / e``.
+  end of the march it measures the march's error: the error of q is ``|D| / swing2`` to
+  within a small factor (:mod:`sweep.kernels.balance`), that of the velocity up to
+  ``|D| / e``.
 
-Decisions (``h = 1/2 - q``, ``dq`` the estimated error of q):
+Decisions (``h = 1/2 - q``, ``dq`` the estimated error of q,
+:func:`sweep.kernels.balance.q_error`):
 
 * exit (u = 0 reached): ``e`` is ``sqrt(1 - 2 q)``, or ``-v`` where the damping has
   shrunk the velocity's errors or e is too small for q's rounding (:func:`cor_at_exit`);
@@ -26,21 +26,20 @@ Decisions (``h = 1/2 - q``, ``dq`` the estimated error of q):
   the energy says the bead leaves: ``e = sqrt(2 h)`` (the dissipation on the stretch the
   march did not cover, from the trough to the floor, is bounded and added to the error);
   if ``h < -dq`` it sticks; in between the balance cannot decide.
-* energy spent (q > 1/2): sticks unless ``h + dq > 0``.
+* energy spent (q > 1/2): sticks unless ``h + dq > 0`` (the march stops there once
+  ``h < -dq``, a creeping bead judged by the creep rules where that is too far off:
+  ``march._SURE_STEPS``).
 * rest (the report's criterion): with a load, the bead rests in its well (``h < 0``); at
   g~ = 0 the energy left, ``sqrt(2 h)``, bounds the e it may still leave with.
 
-The error indicator (for e, absolute) is ``dq / e`` for the balance, with
-``dq = KAPPA_Q min(1, KAPPA_STEPS / steps) lq + |D| / swing2`` plus a rounding floor (``lq``
-the summed embedded local error estimates of the dissipation integral, which fall one order
-slower than the march's error), and ``KAPPA_W lw`` (times up to ``GRAZING_SPEED / e``
-near grazing, short of a creep) plus rounding for ``-v``;
-an undecided stick/rebound gives the bound ``sqrt(2 (h + dq))``. Where it exceeds the
-refinement target, the integrator replaces it by a Richardson estimate
-(:mod:`sweep.kernels.integrator`).
+The error indicator (for e, absolute) is ``dq / e`` for the balance, and ``KAPPA_W lw``
+(``lw`` the summed local error estimates of w, times up to ``GRAZING_SPEED / e`` near
+grazing, short of a creep) plus rounding for ``-v``; an undecided stick/rebound gives the
+bound ``sqrt(2 (h + dq))``. Where it exceeds the refinement target, the integrator replaces
+it by a Richardson estimate (:mod:`sweep.kernels.integrator`).
 
-Owns: the decision rules and the per-point error indicator. May import: contact, march,
-registry.
+Owns: the decision rules and the per-point error indicator. May import: contact, balance,
+march, registry.
 """
 from __future__ import annotations
 
@@ -49,12 +48,11 @@ import math
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import potential, well_depth
+from sweep.kernels.balance import ROUNDING, q_error, swing2
 from sweep.kernels.march import CREEP, EXIT, NEGLIGIBLE, REST, SPENT, TROUGH
 from sweep.registry import Status
 
-__all__ = ["decide", "cor_at_exit", "ROUNDING", "KAPPA_Q", "KAPPA_W", "KAPPA_STEPS",
-           "COARSE_STEPS",
+__all__ = ["decide", "cor_at_exit", "KAPPA_W",
            "GRAZING_SPEED", "GRAZING_MAX", "GRAZING_DAMPING", "BALANCE_MIN_E2",
            "DAMPED_OUT"]
 
@@ -67,31 +65,9 @@ _BUDGET = int(Status.BUDGET_EXHAUSTED)
 BALANCE_MIN_E2 = 1e-20
 #: Above this damping integral the velocity gives e (see cor_at_exit).
 DAMPED_OUT = 20.0
-#: Global error of q (resp. of the velocity) per unit of the summed embedded local error
-#: estimates of the dissipation integral (resp. of w): conservative factors, KAPPA_Q at
-#: resolutions up to KAPPA_STEPS (the measured ratios are given there).
-KAPPA_Q = 0.3
+#: Global error of the velocity per unit of the summed embedded local error estimates of
+#: w: a conservative factor, calibrated with :data:`sweep.kernels.balance.KAPPA_Q`.
 KAPPA_W = 1.5
-#: Resolution (steps per half period) above which KAPPA_Q falls like KAPPA_STEPS / steps.
-#: The embedded estimate is the error of the 4th-order solution, so its sum falls like
-#: steps^-4 while the error of the 5th-order march falls like steps^-5: at a fixed KAPPA_Q
-#: the estimate grew pessimistic in proportion to the resolution (true / e_err at most
-#: 0.26 at 13 steps, 0.054 at 83, on the KK draw), and refined 19% (tol 1e-8) to 34%
-#: (1e-10) of the points for nothing. With the scaling, the largest true / e_err stays at
-#: 0.33-0.63 from 16 to 192 steps on the KK, TTI, linear and general draws
-#: (``python benchmarks/tol_margin.py``; 0.61 on 100,000 general points) and below 0.93 on
-#: a wide draw (alpha, beta in [1, 3], gamma to 30, g~ to 1000), where 16 gave 0.87.
-KAPPA_STEPS = 8.0
-#: Resolution below which the estimate of q's error (its local-error and defect terms) is
-#: widened by ``(COARSE_STEPS / steps)^1.5`` (``tol`` above about 3e-7 takes such
-#: resolutions, and 8 steps from 5e-6 on). The constants above were calibrated from 16
-#: steps on; at 8 to 13 steps the true error reached 1.66 times the estimate on a wide draw
-#: (200,000 points, alpha, beta in [1, 3] with 1, 5/4, 3/2 and 5/2 drawn often, gamma =
-#: 10**U(-6, 1), g~ = 0 or 10**U(-4, 3)), and three points came back beyond tol = 1e-5
-#: with e_err within it. Widened, the largest ratio is 0.99 at tol 1e-6 and 0.73-0.81 at
-#: 3e-6 to 1e-3, for 1-11% more steps there (7% on the KK draw at tol 1e-6; the factor 1
-#: instead of 1.5 left 1.09).
-COARSE_STEPS = 16.0
 #: Speed below which the velocity's estimate grows like GRAZING_SPEED / e, up to
 #: GRAZING_MAX times. Near grazing the bead leaves with a small e after a stretch of light
 #: damping, so an error dE of the energy there becomes dE / e in the velocity, and the
@@ -111,16 +87,6 @@ COARSE_STEPS = 16.0
 GRAZING_SPEED = 5e-3
 GRAZING_MAX = 100.0
 GRAZING_DAMPING = 1000.0
-#: Relative rounding of the march's energy bookkeeping (q and the defect): a floor for dq.
-ROUNDING = 4e-16
-
-
-@jit(inline="always")
-def _coarse(steps):
-    """Room the march's estimate needs below :data:`COARSE_STEPS` (see there)."""
-    return (COARSE_STEPS / steps) ** 1.5 if steps < COARSE_STEPS else 1.0
-
-
 @jit(inline="always")
 def cor_at_exit(h, v, damping):
     """CoR at detachment from the better conditioned of two equal expressions; returns
@@ -162,7 +128,7 @@ def _undecided(h, dq):
 
 
 @jit(inline="always")
-def _exit(c, end, h, defect, dq, swing2):
+def _exit(c, end, h, dq, swing2):
     if h < -dq:  # the geometry overshot: the energy was spent before the floor
         return 0.0, _STUCK, 0.0, 0.0, 0.0
     lam = _damping_integral(c.beta, c.gamma, end.u_max, end.t)
@@ -213,13 +179,9 @@ def decide(c, end, steps):
     the energy balance's and the velocity's values of e where the bead left (NaN where not
     defined)."""
     h = end.h
-    defect = 0.5 * end.v * end.v + potential(end.u, c) - h
-    swing2 = 1.0 + 2.0 * well_depth(c.alpha, c.gtilde)
-    kappa = KAPPA_Q * min(1.0, KAPPA_STEPS / steps)
-    dq = (kappa * end.lq + abs(defect) / swing2) * _coarse(steps) \
-        + ROUNDING * math.sqrt(end.n + 1.0)
+    dq = q_error(c, end.u, end.v, h, end.lq, end.n, steps)
     if end.kind == EXIT:
-        return _exit(c, end, h, defect, dq, swing2)
+        return _exit(c, end, h, dq, swing2(c))
     if end.kind == TROUGH:
         return _trough(c, end, h, dq)
     undecided = _undecided(h, dq) if h > -dq else 0.0

@@ -1,0 +1,74 @@
+"""The error of the energy balance: how far the dissipated energy q the march carries may
+be from the true one.
+
+Along the true motion ``H = v^2/2 + V(u) = 1/2 - q`` (:mod:`sweep.kernels.outcome`). The
+estimate ``dq`` of q's error combines the summed embedded local error estimates ``lq`` of
+the dissipation integral with the *energy defect* ``D = v^2/2 + V(u) - (1/2 - q)``, which
+vanishes along the true motion: measured against the linear law's closed form and
+high-precision references, q's error is ``|D| / swing2`` to within a small factor, with
+``swing2 = 1 + 2 |V(u-bar)|`` the square of the largest speed of the swing.
+
+Both the march (whose energy rule stops a bead only once ``H < -dq``, so that the stick is
+certain) and the decision rules (:mod:`sweep.kernels.outcome`) read it here.
+
+Owns: dq and its calibration. May import: contact.
+"""
+from __future__ import annotations
+
+import math
+
+from sweep.kernels._jit import jit
+from sweep.kernels.contact import potential, well_depth
+
+__all__ = ["q_error", "swing2", "KAPPA_Q", "KAPPA_STEPS", "COARSE_STEPS", "ROUNDING"]
+
+#: Global error of q per unit of the summed embedded local error estimates of the
+#: dissipation integral: a conservative factor at resolutions up to KAPPA_STEPS (the
+#: measured ratios are given there; the velocity's is ``outcome.KAPPA_W``).
+KAPPA_Q = 0.3
+#: Resolution (steps per half period) above which KAPPA_Q falls like KAPPA_STEPS / steps.
+#: The embedded estimate is the error of the 4th-order solution, so its sum falls like
+#: steps^-4 while the error of the 5th-order march falls like steps^-5: at a fixed KAPPA_Q
+#: the estimate grew pessimistic in proportion to the resolution (true / e_err at most
+#: 0.26 at 13 steps, 0.054 at 83, on the KK draw), and refined 19% (tol 1e-8) to 34%
+#: (1e-10) of the points for nothing. With the scaling, the largest true / e_err stays at
+#: 0.33-0.63 from 16 to 192 steps on the KK, TTI, linear and general draws
+#: (``python benchmarks/tol_margin.py``; 0.61 on 100,000 general points) and below 0.93 on
+#: a wide draw (alpha, beta in [1, 3], gamma to 30, g~ to 1000), where 16 gave 0.87.
+KAPPA_STEPS = 8.0
+#: Resolution below which the estimate of q's error (its local-error and defect terms) is
+#: widened by ``(COARSE_STEPS / steps)^1.5`` (``tol`` above about 3e-7 takes such
+#: resolutions, and 8 steps from 5e-6 on). The constants above were calibrated from 16
+#: steps on; at 8 to 13 steps the true error reached 1.66 times the estimate on a wide draw
+#: (200,000 points, alpha, beta in [1, 3] with 1, 5/4, 3/2 and 5/2 drawn often, gamma =
+#: 10**U(-6, 1), g~ = 0 or 10**U(-4, 3)), and three points came back beyond tol = 1e-5
+#: with e_err within it. Widened, the largest ratio is 0.99 at tol 1e-6 and 0.73-0.81 at
+#: 3e-6 to 1e-3, for 1-11% more steps there (7% on the KK draw at tol 1e-6; the factor 1
+#: instead of 1.5 left 1.09).
+COARSE_STEPS = 16.0
+#: Relative rounding of the march's energy bookkeeping (q and the defect): a floor for dq.
+ROUNDING = 4e-16
+
+
+@jit(inline="always")
+def _coarse(steps):
+    """Room the march's estimate needs below :data:`COARSE_STEPS` (see there)."""
+    return (COARSE_STEPS / steps) ** 1.5 if steps < COARSE_STEPS else 1.0
+
+
+@jit(inline="always")
+def swing2(c):
+    """``1 + 2 |V(u-bar)|``: the square of the largest speed of the swing of the law ``c``."""
+    return 1.0 + 2.0 * well_depth(c.alpha, c.gtilde)
+
+
+@jit(inline="always")
+def q_error(c, u, v, h, lq, n, steps):
+    """Estimated error ``dq`` of the dissipated energy (so of ``h = 1/2 - q``) of a march
+    at resolution ``steps`` (steps per half period) that is at ``(u, v)`` after ``n``
+    steps, with ``lq`` its summed local error estimates of the dissipation integral
+    (module docstring), a rounding floor included."""
+    defect = 0.5 * v * v + potential(u, c) - h
+    kappa = KAPPA_Q * min(1.0, KAPPA_STEPS / steps)
+    return (kappa * lq + abs(defect) / swing2(c)) * _coarse(steps) \
+        + ROUNDING * math.sqrt(n + 1.0)
