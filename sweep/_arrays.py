@@ -42,10 +42,9 @@ class Broadcast:
         arrays = [registry.real_array(name, a) for name, a in zip(names, arrays)]
         self.scalar = all(a.ndim == 0 for a in arrays)
         check_broadcast(names, arrays)
-        bcast = np.broadcast_arrays(*arrays)
-        self.shape = bcast[0].shape
+        self.shape = np.broadcast_shapes(*(a.shape for a in arrays))
         self.names = tuple(names)
-        self.flat = [np.ascontiguousarray(b.reshape(-1)) for b in bcast]
+        self.flat = [_flat(a, self.shape) for a in arrays]
 
     @property
     def size(self) -> int:
@@ -65,6 +64,15 @@ class Broadcast:
             return
         for name, value in zip(self.names, self.flat):
             registry.check_scalar(name, float(value[0]))
+
+
+def _flat(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """``a`` broadcast to ``shape``, flat and C-contiguous, writeable where copied."""
+    # Not np.broadcast_arrays: its views carry numpy's "warn on write" flag, which numba's
+    # typeof turns into a FutureWarning on the user's stderr at every kernel call.
+    if a.shape == shape:
+        return np.ascontiguousarray(a.reshape(-1))
+    return np.array(np.broadcast_to(a, shape), order="C").reshape(-1)
 
 
 def check_broadcast(names: Sequence[str], arrays: Sequence[np.ndarray]) -> None:

@@ -233,3 +233,19 @@ def test_gamma_above_1e300_is_outside_the_domain():
     assert r.e[0] == 0.0 and np.isnan(r.e[1:]).all()
     e, status = sweep.cor_with_status(1.5, 1.5, np.array([1e300, 1e305]), 1.0, method="ord1")
     assert list(status) == [Status.OK, Status.INVALID] and np.isnan(e[1])
+
+
+@pytest.mark.parametrize("shapes", [((2,), ()), ((1,), ()), ((2, 1), (3,))])
+def test_broadcast_inputs_reach_the_kernels_without_a_warning(shapes):
+    # np.broadcast_arrays' views carry numpy's warn-on-write flag: numba's typeof, reading
+    # flags.writeable when a call compiles or loads a specialisation, put a FutureWarning
+    # on the user's stderr (sweep.cor(1.5, 1.5, np.array([0.05]), 1.0, method=...)).
+    from sweep._arrays import Broadcast
+    arrays = [np.arange(1.0, 1.0 + np.prod(s)).reshape(s) for s in shapes]
+    b = Broadcast(("gamma", "gtilde"), arrays)
+    expected = np.broadcast_arrays(*arrays)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for flat, full in zip(b.flat, expected):
+            assert numba.typeof(flat).mutable
+            assert np.array_equal(flat, full.reshape(-1))
