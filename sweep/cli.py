@@ -54,14 +54,20 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def _positive_int(text):
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
-    return value
+def _int_at_least(low):
+    """An argparse ``type=``: an integer >= ``low``."""
+    def convert(text):
+        try:
+            value = int(text)
+        except ValueError:
+            value = low - 1
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {low}, got {text!r}")
+        return value
+    return convert
+
+
+_positive_int = _int_at_least(1)
 
 
 def _positive_float(text):
@@ -310,11 +316,11 @@ def _add_paper_command(sub, models):
                     "eq. (24)).")
     p.add_argument("--out", metavar="DIR", default="paper_report",
                    help="output directory (default: ./paper_report)")
-    p.add_argument("--n-gamma", type=int, default=1000, metavar="N",
+    p.add_argument("--n-gamma", type=_int_at_least(2), default=1000, metavar="N",
                    help="gamma grid points per (model, g~) (default 1000, as the report)")
-    p.add_argument("--n-crit", type=int, default=100, metavar="N",
+    p.add_argument("--n-crit", type=_positive_int, default=100, metavar="N",
                    help="gamma values of Figures 8-11 (default 100, as the report)")
-    p.add_argument("--steps", type=float, default=None,
+    p.add_argument("--steps", type=_finite_positive(), default=None,
                    help="integrator resolution (default: the package default)")
     p.add_argument("--models", nargs="+", choices=models, default=None,
                    help="subset of models (default: all four)")
@@ -356,7 +362,7 @@ def _add_speed_command(sub, models):
                    help="engine timings are the best of this many (default 3)")
     p.add_argument("--model", choices=models, default="kk",
                    help="contact model of the point set (default kk)")
-    p.add_argument("--seed", type=int, default=0,
+    p.add_argument("--seed", type=_int_at_least(0), default=0,
                    help="seed of the random point set (default 0)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     p.set_defaults(func=_cmd_speed)
@@ -381,9 +387,9 @@ def _add_error_model_command(sub):
                     "random points in and out of the model.")
     p.add_argument("--out", metavar="FILE.npz", default=None,
                    help="where to write the model (default: the file the package ships)")
-    p.add_argument("--sub", type=int, default=2, metavar="N",
+    p.add_argument("--sub", type=_positive_int, default=2, metavar="N",
                    help="samples per cell edge (default 2)")
-    p.add_argument("--n-validate", type=int, default=20000, metavar="N",
+    p.add_argument("--n-validate", type=_int_at_least(0), default=20000, metavar="N",
                    help="random points of the validation (default 20000; 0: none)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     p.set_defaults(func=_cmd_error_model)

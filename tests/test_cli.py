@@ -276,3 +276,21 @@ def test_a_closed_stdout_in_process_returns_quietly(monkeypatch, capsys, tmp_pat
     monkeypatch.setattr(sys, "stdout", _ClosedStdout())
     assert cli.main(["info", str(tmp_path / "any.nc")]) == 128 + 13   # 13: SIGPIPE
     assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize("argv, bad", [
+    (["report", "paper", "--n-gamma", "1"], "--n-gamma"),
+    (["report", "paper", "--n-crit", "0"], "--n-crit"),
+    (["report", "paper", "--steps", "0"], "--steps"),
+    (["report", "paper", "--steps", "nan"], "--steps"),
+    (["report", "error-model", "--sub", "0"], "--sub"),
+    (["report", "error-model", "--n-validate", "-1"], "--n-validate"),
+    (["report", "speed", "--seed", "-3"], "--seed")])
+def test_report_numbers_out_of_range_are_usage_errors(capsys, argv, bad):
+    # Before, the report ran and its ValueError came back as "unexpected ValueError ...
+    # (rerun with --debug)", exit 1, as if the package had failed.
+    with pytest.raises(SystemExit) as info:
+        cli.main(argv)
+    err = capsys.readouterr().err
+    assert info.value.code == 2
+    assert err.count("\n") == 1 and f"argument {bad}: must be" in err and argv[-1] in err
