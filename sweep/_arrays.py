@@ -69,7 +69,8 @@ class Broadcast:
 def _flat(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     """``a`` broadcast to ``shape``, flat and C-contiguous, writeable where copied."""
     # Not np.broadcast_arrays: its views carry numpy's "warn on write" flag, which numba's
-    # typeof turns into a FutureWarning on the user's stderr at every kernel call.
+    # typeof turns into a FutureWarning on the user's stderr when a call compiles or loads
+    # a kernel.
     if a.shape == shape:
         return np.ascontiguousarray(a.reshape(-1))
     return np.array(np.broadcast_to(a, shape), order="C").reshape(-1)

@@ -87,6 +87,8 @@ KAPPA_W = 1.5
 GRAZING_SPEED = 5e-3
 GRAZING_MAX = 100.0
 GRAZING_DAMPING = 1000.0
+
+
 @jit(inline="always")
 def cor_at_exit(h, v, damping):
     """CoR at detachment from the better conditioned of two equal expressions; returns
