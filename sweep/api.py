@@ -27,7 +27,7 @@ from sweep.registry import Status
 __all__ = ["integrate", "cor", "cor_with_status", "cor_fields", "IntegrationResult", "METHODS",
            "APPROXIMATIONS", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL",
            "coefficients", "coefficients_at_zero", "first_order_coefficients",
-           "large_gtilde_coefficient", "SP_C2", "integrator_settings"]
+           "large_gtilde_coefficient", "SP_C2", "integrator_settings", "method_settings"]
 
 #: The report's closed-form approximations (Sections 4-5) built into the package.
 APPROXIMATIONS = registry.approximations()
@@ -64,20 +64,25 @@ def _result_type() -> type:
     return IntegrationResult
 
 
-def integrator_settings(**options: Any) -> dict[str, Any]:
-    """Validated integrator options, defaults filled in; ``steps`` stays None where ``tol``
-    chooses the resolution (given ``tol`` and no ``steps``).
+def method_settings(method: str, options: dict[str, Any]) -> dict[str, Any]:
+    """Validated options of ``method``, defaults filled in, as its results record them:
+    ``steps`` stays None where ``tol`` chooses the resolution (given ``tol`` and no
+    ``steps``), so that the record gives the same numbers back.
 
     Raises
     ------
     ValueError
         An unknown option or a value its rule rejects (one line naming it).
     """
-    from_tol = options.get("tol") is not None and options.get("steps") is None
-    out = registry.METHODS["numeric"].check_options(options)
-    if from_tol:
-        out["steps"] = None
+    out = registry.method(method).check_options(options)
+    if "steps" in out and out.get("tol") is not None and options.get("steps") is None:
+        out["steps"] = None     # "auto" always has a tol: its default chooses there too
     return out
+
+
+def integrator_settings(**options: Any) -> dict[str, Any]:
+    """:func:`method_settings` of the integration (``"numeric"``)."""
+    return method_settings("numeric", options)
 
 
 def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | None = None,
@@ -195,7 +200,10 @@ def cor_fields(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "nu
     # and a composite method (auto) must tell a given resolution from the default one.
     checked = m.check_options(options)
     b = broadcast_points(alpha, beta, gamma, gtilde)
-    e, status, *extra = m.resolve()(*b.flat, **{k: checked[k] for k in options})
+    # An option given as None is not given (check_options put the default there, which
+    # "auto" took for a chosen resolution: steps=None gave other numbers than no steps).
+    given = {k: checked[k] for k, v in options.items() if v is not None}
+    e, status, *extra = m.resolve()(*b.flat, **given)
     undefined = ~m.defined_at(b.flat[0], b.flat[1])
     if undefined.any():
         e = np.where(undefined, np.nan, e)

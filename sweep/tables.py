@@ -259,7 +259,7 @@ def _method_options(attrs: Mapping[str, Any], method: str) -> dict[str, Any]:
         value = attrs.get(prefix + opt.name)
         if value is not None and not isinstance(value, str):
             opts[opt.name] = opt.from_attr(value)
-    return m.check_options(opts)
+    return api.method_settings(method, opts)
 
 
 def lookup(dataset: Any, v0: Any, F: Any = None, material: Any = None,

@@ -60,7 +60,7 @@ def _method_attrs(method: str, options: dict) -> dict:
     """Attributes of a method's result: its registry metadata and the settings used
     (defaults resolved; ``parallel`` left out on purpose: results do not depend on it)."""
     m = registry.method(method)
-    used = m.check_options({k: v for k, v in options.items() if k != "parallel"})
+    used = api.method_settings(method, {k: v for k, v in options.items() if k != "parallel"})
     prefix = "integrator_" if m.integrates else "option_"
     # As in sweep's files: each option in its netCDF form (Option.to_attr).
     return {"long_name": m.long_name, "units": "1", "method": method,
@@ -108,8 +108,11 @@ def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
     method : str, default "numeric"
         One of :data:`sweep.METHODS` (see :func:`sweep.cor`).
     **options
-        Passed to :func:`sweep.cor` (``steps``, ``rest_tol``, ``max_steps``, ``parallel`` for
-        ``"numeric"``; ``n`` for ``"ord2_approx"``); checked at call time.
+        Passed to :func:`sweep.cor`: the method's options (:attr:`sweep.registry.Method.options`:
+        ``tol``, ``steps``, ``rest_tol``, ``max_steps``, ``refine``, ``device`` for
+        ``"numeric"`` and ``"auto"``; ``n`` for ``"ord2_approx"``) and ``parallel``;
+        checked at call time. The result's attributes record them, defaults resolved
+        (``steps`` "default" where ``tol`` chooses the resolution).
 
     Returns
     -------
@@ -152,8 +155,8 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any,
     alpha, beta, gamma, gtilde : float or xarray.DataArray
         Scaled parameters [1] (see :func:`cor`), broadcast by dimension name.
     **options
-        ``steps``, ``rest_tol``, ``max_steps``, ``parallel`` of :func:`sweep.integrate`;
-        checked at call time.
+        ``tol``, ``steps``, ``rest_tol``, ``max_steps``, ``refine``, ``device``,
+        ``parallel`` of :func:`sweep.integrate`; checked at call time.
 
     Returns
     -------

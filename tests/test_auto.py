@@ -110,3 +110,14 @@ def test_error_model_file_and_codes(tmp_path):
     b = model.bounds(np.array([1.5, 1.5]), np.array([1.5, 1.0]), np.full(2, 1e-3),
                      np.full(2, 0.1))
     assert np.isfinite(b[0, sp]) and np.isinf(b[1, sp])
+
+
+def test_an_option_given_as_none_is_not_given():
+    # steps=None reached auto's kernel as the default resolution, 96, "given": its
+    # integrated points then took 96 steps instead of the resolution its tol chooses.
+    gamma = np.array([1e-3, 1e-2, 0.1, 1.0])
+    e = sweep.cor(1.5, 1.5, gamma, 1.0, method="auto", tol=1e-6)
+    assert np.array_equal(sweep.cor(1.5, 1.5, gamma, 1.0, method="auto", tol=1e-6,
+                                    steps=None), e)
+    assert np.array_equal(sweep.cor(1.5, 1.5, gamma, 1.0, method="auto", tol=None),
+                          sweep.cor(1.5, 1.5, gamma, 1.0, method="auto"))

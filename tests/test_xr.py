@@ -175,6 +175,22 @@ def test_bad_options_raise_at_call_time_even_for_dask_inputs():
 
 # --------------------------------------------------------------------------- values, attrs
 
+@pytest.mark.parametrize("method", ["numeric", "auto"])
+@pytest.mark.parametrize("given", [{"tol": 1e-6}, {"tol": 1e-6, "steps": 40.0}, {}])
+def test_recorded_settings_give_the_same_numbers_back(method, given):
+    # The attributes said integrator_steps = 96 where tol had chosen the resolution, so
+    # the recorded settings, passed back, gave other numbers (as sweep's files do:
+    # "default" where tol chooses).
+    e = sx.cor(1.5, 1.5, gamma_da(), 1.0, method=method, **given)
+    m = sweep.registry.method(method)
+    prefix = "integrator_" if m.integrates else "option_"
+    recorded = {o.name: o.from_attr(e.attrs[prefix + o.name]) for o in m.options}
+    from_tol = "steps" not in given and ("tol" in given or method == "auto")
+    assert (recorded["steps"] is None) == from_tol
+    again = sweep.cor(1.5, 1.5, GAMMA, 1.0, method=method, **recorded)
+    assert np.array_equal(e.values, again)
+
+
 def test_attributes():
     e = sx.cor(1.5, 1.5, gamma_da(), 1.0, steps=STEPS)
     assert e.name == "e_numeric"
