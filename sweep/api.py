@@ -27,7 +27,8 @@ from sweep.registry import Status
 __all__ = ["integrate", "cor", "cor_with_status", "cor_fields", "IntegrationResult", "METHODS",
            "APPROXIMATIONS", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL",
            "coefficients", "coefficients_at_zero", "first_order_coefficients",
-           "large_gtilde_coefficient", "SP_C2", "integrator_settings", "method_settings"]
+           "large_gtilde_coefficient", "SP_C2", "integrator_settings", "method_settings",
+           "recorded_settings"]
 
 #: The report's closed-form approximations (Sections 4-5) built into the package.
 APPROXIMATIONS = registry.approximations()
@@ -83,6 +84,21 @@ def method_settings(method: str, options: dict[str, Any]) -> dict[str, Any]:
 def integrator_settings(**options: Any) -> dict[str, Any]:
     """:func:`method_settings` of the integration (``"numeric"``)."""
     return method_settings("numeric", options)
+
+
+def recorded_settings(attrs: Any, method: str) -> dict[str, Any]:
+    """The settings a sweep dataset's ``method`` was computed with, from its global
+    attributes as ``sweep run`` writes them (``integrator_<option>`` for the integration,
+    ``options_<method>_<option>`` for another method; "default" or absent: the default),
+    resolved by :func:`method_settings`."""
+    m = registry.method(method)
+    prefix = "integrator_" if m.integrates else f"options_{method}_"
+    opts = {}
+    for opt in m.options:
+        value = attrs.get(prefix + opt.name)
+        if value is not None and not isinstance(value, str):
+            opts[opt.name] = opt.from_attr(value)
+    return method_settings(method, opts)
 
 
 def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | None = None,

@@ -30,7 +30,6 @@ from __future__ import annotations
 import csv
 import json
 import os
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -131,7 +130,7 @@ class Table:
                            for name in _MATERIAL_VARIABLES}
         self.g = float(ds["g"].values)
         self.method = self.variable[2:]
-        self.options = _method_options(ds.attrs, self.method)
+        self.options = api.recorded_settings(ds.attrs, self.method)
 
     # -- interpolation --------------------------------------------------------------------
 
@@ -248,18 +247,6 @@ class Table:
                 "median_abs": float(np.median(d)) if d.size else 0.0,
                 "where": {"material": str(names[worst]), "v0": float(v[worst]),
                           "F": float(f[worst])} if d.size else {}}
-
-
-def _method_options(attrs: Mapping[str, Any], method: str) -> dict[str, Any]:
-    """The options the dataset was computed with (its global attributes)."""
-    m = registry.method(method)
-    prefix = "integrator_" if m.integrates else f"options_{method}_"
-    opts = {}
-    for opt in m.options:
-        value = attrs.get(prefix + opt.name)
-        if value is not None and not isinstance(value, str):
-            opts[opt.name] = opt.from_attr(value)
-    return api.method_settings(method, opts)
 
 
 def lookup(dataset: Any, v0: Any, F: Any = None, material: Any = None,

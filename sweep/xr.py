@@ -225,8 +225,11 @@ class SweepAccessor:
         return tuple(out)
 
     def cor(self, method: str = "numeric", **options: Any) -> xr.DataArray:
-        """:func:`sweep.xr.cor` at the dataset's points (float64 [1], named ``e_<method>``)."""
-        return cor(*self.parameters(), method=method, **options)
+        """:func:`sweep.xr.cor` at the dataset's points (float64 [1], named ``e_<method>``),
+        with the settings the dataset records for ``method`` (:func:`sweep.api.recorded_settings`:
+        a file of ``sweep run`` gives its own numbers back) unless ``options`` say others."""
+        recorded = api.recorded_settings(self._ds.attrs, method)
+        return cor(*self.parameters(), method=method, **{**recorded, **options})
 
     def error(self, method: str, reference: str = "e_numeric",
               **options: Any) -> xr.DataArray:
@@ -239,7 +242,8 @@ class SweepAccessor:
         reference : str, default "e_numeric"
             Variable of the dataset to compare against.
         **options
-            Passed to :func:`sweep.xr.cor` (e.g. ``n`` for ``"ord2_approx"``).
+            Passed to :func:`sweep.xr.cor` (e.g. ``n`` for ``"ord2_approx"``), over the
+            settings the dataset records (see :meth:`cor`).
 
         Returns
         -------

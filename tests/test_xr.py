@@ -311,6 +311,23 @@ def test_accessor_on_a_sweep_run_dataset(text, tmp_path):
             same_bits(lazy.compute().values, ds.error_ord1.values)
 
 
+def test_accessor_recomputes_with_the_settings_the_file_records(tmp_path):
+    # With the package's defaults instead (96 steps, target 1e-9; n = 21) the accessor's
+    # e_numeric of a tol = 1e-8 file was off by 2e-9 from the file's own, and
+    # error("numeric") was not 0.
+    text = GRID.replace("steps = 16", "tol = 1e-8") + "[options.ord2_approx]\nn = 11\n"
+    path = made_by_sweep_run(text, tmp_path / "s.nc")
+    with xr.open_dataset(path) as ds:
+        ds = ds.load()
+    assert ds.attrs["integrator_tol"] == 1e-8 and ds.attrs["options_ord2_approx_n"] == 11
+    same_bits(ds.sweep.cor("numeric").values, ds.e_numeric.values)
+    same_bits(ds.sweep.cor("ord2_approx").values, ds.e_ord2_approx.values)
+    assert not np.array_equal(ds.sweep.cor("ord2_approx", n=5).values, ds.e_ord2_approx.values)
+    a, b, g, gt = xr.broadcast(*(ds[k] for k in ("alpha", "beta", "gamma", "gtilde")))
+    same_bits(ds.e_numeric.transpose(*a.dims).values,
+              sweep.cor(a.values, b.values, g.values, gt.values, tol=1e-8))
+
+
 def test_accessor_on_a_hand_built_dataset():
     ds = xr.Dataset(coords={"alpha": [1.5], "beta": [1.5], "gamma": GAMMA, "gtilde": GTILDE})
     e = ds.sweep.cor("ord2_numint")
