@@ -398,6 +398,13 @@ class Method:
     fields: tuple[Field, ...] = ()
     composite: bool = False
 
+    @property
+    def error_long_name(self) -> str:
+        """``long_name`` of the method's error field ``e_<name> - reference``: "error of
+        the second order with approximated I, Q" (its own long_name after the quantity)."""
+        quantity, _, which = self.long_name.partition(", ")
+        return f"error of the {which or quantity}"
+
     def resolve(self) -> Callable[..., tuple[np.ndarray, np.ndarray]]:
         """The kernel as a callable (imports its module on first use)."""
         if callable(self.kernel):

@@ -257,6 +257,6 @@ class SweepAccessor:
         e = self.cor(method, **options)
         err = (e - ref).transpose(*ref.dims, ...)
         err.name = f"error_{method}"
-        err.attrs = {**e.attrs, "long_name": f"error of the {e.attrs['long_name']}",
+        err.attrs = {**e.attrs, "long_name": registry.method(method).error_long_name,
                      "description": f"{e.name} - {reference}", "reference": reference}
         return err

@@ -298,6 +298,7 @@ def test_accessor_on_a_sweep_run_dataset(text, tmp_path):
     assert err.name == "error_ord1" and err.dims == ds.error_ord1.dims
     same_bits(err.values, ds.error_ord1.values)      # what the runner stored, bit for bit
     assert err.attrs["units"] == "1" and err.attrs["reference"] == "e_numeric"
+    assert err.attrs["long_name"] == ds.error_ord1.attrs["long_name"]   # as the file says
     if "e_ord2_approx" in ds:
         same_bits(ds.sweep.cor("ord2_approx").values, ds.e_ord2_approx.values)
     counter = CountingScheduler()

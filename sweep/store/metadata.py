@@ -77,7 +77,7 @@ def _method_spec(method: registry.Method) -> tuple[np.dtype, dict]:
 
 def _error_spec(method: registry.Method) -> tuple[np.dtype, dict]:
     return _with_fill(_E.dtype, {
-        "long_name": f"error of the {method.long_name.split(', ', 1)[1]}",
+        "long_name": method.error_long_name,
         "units": "1",
         "description": f"e_{method.name} - e_numeric: the approximation "
                        f"({method.description}) minus the numerical CoR "
