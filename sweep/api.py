@@ -92,10 +92,9 @@ def recorded_settings(attrs: Any, method: str) -> dict[str, Any]:
     ``options_<method>_<option>`` for another method; "default" or absent: the default),
     resolved by :func:`method_settings`."""
     m = registry.method(method)
-    prefix = "integrator_" if m.integrates else f"options_{method}_"
     opts = {}
     for opt in m.options:
-        value = attrs.get(prefix + opt.name)
+        value = attrs.get(m.attr_prefix + opt.name)
         if value is not None and not isinstance(value, str):
             opts[opt.name] = opt.from_attr(value)
     return method_settings(method, opts)

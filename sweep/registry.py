@@ -399,6 +399,12 @@ class Method:
     composite: bool = False
 
     @property
+    def attr_prefix(self) -> str:
+        """Prefix of the method's settings among a sweep file's global attributes
+        (``integrator_steps``, ``options_ord2_approx_n``)."""
+        return "integrator_" if self.integrates else f"options_{self.name}_"
+
+    @property
     def error_long_name(self) -> str:
         """``long_name`` of the method's error field ``e_<name> - reference``: "error of
         the second order with approximated I, Q" (its own long_name after the quantity)."""

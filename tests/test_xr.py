@@ -327,6 +327,11 @@ def test_accessor_recomputes_with_the_settings_the_file_records(tmp_path):
     a, b, g, gt = xr.broadcast(*(ds[k] for k in ("alpha", "beta", "gamma", "gtilde")))
     same_bits(ds.e_numeric.transpose(*a.dims).values,
               sweep.cor(a.values, b.values, g.values, gt.values, tol=1e-8))
+    # The resolution is one setting: a file's steps = 16 does not overrule a tol given.
+    with xr.open_dataset(made_by_sweep_run(GRID, tmp_path / "g.nc")) as grid:
+        grid = grid.load()
+    same_bits(grid.sweep.cor("numeric", tol=1e-6).transpose(*a.dims).values,
+              sweep.cor(a.values, b.values, g.values, gt.values, tol=1e-6))
 
 
 def test_accessor_on_a_hand_built_dataset():

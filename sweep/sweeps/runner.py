@@ -305,8 +305,9 @@ def _integrator_attrs(plan):
     if not plan.integrate:
         return {"integrator": "not run (no requested output needs the numerical integration)"}
     # Every option of the "numeric" method, defaults resolved.
+    numeric = registry.METHODS["numeric"]
     return {"integrator": "fixed-step Dormand-Prince 5(4), three phases of Algorithm 1",
-            **{f"integrator_{key}": registry.METHODS["numeric"].option(key).to_attr(value)
+            **{numeric.attr_prefix + key: numeric.option(key).to_attr(value)
                for key, value in api.integrator_settings(**plan.integrator).items()}}
 
 
@@ -337,7 +338,7 @@ def _static_attrs(cfg, design, plan, chunk_size):
     attrs.update(_integrator_attrs(plan))
     for method, opts in plan.options.items():
         for key, value in opts.items():
-            attrs[f"options_{method}_{key}"] = value
+            attrs[registry.method(method).attr_prefix + key] = value
     return attrs
 
 
