@@ -619,6 +619,12 @@ def _expected_errors():
     return (ConfigError, ResumeError, RunError, OSError)
 
 
+def _command_name(args: argparse.Namespace) -> str:
+    """The command as typed (``sweep report paper``), as argparse's own error lines say it."""
+    sub = getattr(args, "report", None) or getattr(args, "example", None)
+    return f"sweep {args.command}" + (f" {sub}" if sub else "")
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``sweep`` console script.
 
@@ -652,7 +658,7 @@ def main(argv: list[str] | None = None) -> int:
         if getattr(args, "debug", False):
             raise
         kind = "" if isinstance(exc, _expected_errors()) else f"unexpected {type(exc).__name__}: "
-        print(f"sweep {args.command}: error: {kind}{_one_line(exc)}"
+        print(f"{_command_name(args)}: error: {kind}{_one_line(exc)}"
               + (" (rerun with --debug for the traceback)" if kind else ""), file=sys.stderr)
         return 1
     finally:

@@ -136,3 +136,13 @@ def test_bounce_example_refuses_before_writing(tmp_path, kw, expected):
     with pytest.raises(ValueError, match="^" + re.escape(expected)):
         examples.bounce_example(out, **kw)
     assert not out.exists()
+
+
+def test_cli_bounce_names_itself_in_a_fault_of_the_input(tmp_path, capsys):
+    # A missing scene file is the package's error, not argparse's: its line said
+    # "sweep example: error:" where argparse's say "sweep example bounce: error:".
+    assert main(["example", "bounce", "--out", str(tmp_path / "bx"),
+                 "--scene", str(tmp_path / "missing.toml")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("sweep example bounce: error: ") and "missing.toml" in err, err
+    assert len(err.splitlines()) == 1 and "unexpected" not in err
