@@ -71,6 +71,8 @@ _positive_int = _int_at_least(1)
 
 
 def _positive_float(text):
+    """An argparse ``type=``: a number > 0, ``inf`` included (an interval or a timeout
+    that never comes)."""
     try:
         value = float(text)
     except ValueError:
@@ -349,14 +351,14 @@ def _add_speed_command(sub, models):
                    help="points on which the reference is cross-checked with DOP853")
     p.add_argument("--n-closed", type=_positive_int, default=2_000_000, metavar="N",
                    help="largest tiled set the closed forms are timed on (default 2000000)")
-    p.add_argument("--tols", type=_positive_float, nargs="+", metavar="TOL",
+    p.add_argument("--tols", type=_finite_positive(), nargs="+", metavar="TOL",
                    help="the engine's accuracy targets (default 1e-4 ... 1e-11)")
     p.add_argument("--peers", nargs="+", choices=("scipy", "numbalsoda", "diffrax"),
                    default=["scipy", "numbalsoda", "diffrax"],
                    help="peers to time (default: all; the optional ones when installed)")
-    p.add_argument("--ref-steps", type=_positive_float, default=1024.0,
+    p.add_argument("--ref-steps", type=_finite_positive(), default=1024.0,
                    help="resolution of the reference (default 1024)")
-    p.add_argument("--ref-tol", type=_positive_float, default=1e-13,
+    p.add_argument("--ref-tol", type=_finite_positive(), default=1e-13,
                    help="refinement target of the reference (default 1e-13)")
     p.add_argument("--repeat", type=_positive_int, default=3,
                    help="engine timings are the best of this many (default 3)")

@@ -285,7 +285,12 @@ def test_a_closed_stdout_in_process_returns_quietly(monkeypatch, capsys, tmp_pat
     (["report", "paper", "--steps", "nan"], "--steps"),
     (["report", "error-model", "--sub", "0"], "--sub"),
     (["report", "error-model", "--n-validate", "-1"], "--n-validate"),
-    (["report", "speed", "--seed", "-3"], "--seed")])
+    (["report", "speed", "--seed", "-3"], "--seed"),
+    # An infinite resolution or tolerance is no setting: the run would never end or mean
+    # nothing (a timeout or a progress interval may be inf: never).
+    (["report", "speed", "--ref-steps", "inf"], "--ref-steps"),
+    (["report", "speed", "--ref-tol", "inf"], "--ref-tol"),
+    (["report", "speed", "--tols", "1e-6", "inf"], "--tols")])
 def test_report_numbers_out_of_range_are_usage_errors(capsys, argv, bad):
     # Before, the report ran and its ValueError came back as "unexpected ValueError ...
     # (rerun with --debug)", exit 1, as if the package had failed.
