@@ -70,30 +70,25 @@ def _int_at_least(low):
 _positive_int = _int_at_least(1)
 
 
-def _positive_float(text):
-    """An argparse ``type=``: a number > 0, ``inf`` included (an interval or a timeout
-    that never comes)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = 0.0
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}")
-    return value
-
-
-def _finite_positive(unit=""):
-    """An argparse ``type=``: a finite number > 0; ``unit`` (e.g. ``" [m]"``) goes into the
+def _number_above_zero(unit="", finite=True):
+    """An argparse ``type=``: a number > 0, finite unless ``finite`` is False (``inf``: an
+    interval or a timeout that never comes); ``unit`` (e.g. ``" [m]"``) goes into the
     message, which argparse prefixes with the option's name."""
+    kind = "finite number" if finite else "number"
+
     def convert(text):
         try:
             value = float(text)
         except ValueError:
             value = math.nan
-        if not (math.isfinite(value) and value > 0):
-            raise argparse.ArgumentTypeError(f"must be a finite number > 0{unit}, got {text!r}")
+        if not (value > 0 and (math.isfinite(value) or not finite)):
+            raise argparse.ArgumentTypeError(f"must be a {kind} > 0{unit}, got {text!r}")
         return value
     return convert
+
+
+_finite_positive = _number_above_zero
+_positive_float = _number_above_zero(finite=False)
 
 
 _SIZE_UNITS = {"": 1, "k": 10 ** 3, "m": 10 ** 6, "g": 10 ** 9, "t": 10 ** 12, "p": 10 ** 15}
