@@ -265,6 +265,17 @@ def startup_figures(args, machine):
     return [fresh, warm]
 
 
+def _mean_over(fn, seconds):
+    """Mean time of calls of ``fn`` repeated for at least ``seconds``: one short call can
+    end before the scheduler gives the counting thread a turn (a rate of 0 on a busy
+    machine, the --quick run's 1,000 points)."""
+    t0, calls = time.perf_counter(), 0
+    while calls == 0 or time.perf_counter() - t0 < seconds:
+        fn()
+        calls += 1
+    return (time.perf_counter() - t0) / calls
+
+
 def _counter(stop, box):
     n = 0
     while not stop.is_set():
@@ -287,7 +298,7 @@ def gil_figure(args, machine):
         for phase in ("alone", "during", "alone after"):
             c0, t0 = box[0], time.perf_counter()
             if phase == "during":
-                duration = _best(kernel, 1)[0]
+                duration = _mean_over(kernel, duration)
             else:
                 time.sleep(duration)                       # the GIL is free meanwhile
             rates[phase] = (box[0] - c0) / (time.perf_counter() - t0)
