@@ -151,6 +151,25 @@ def test_material_properties_hertz_and_target_damping():
         config.loads(bad)
 
 
+def test_only_plus_inf_is_a_rigid_floor():
+    # 1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2, the floor's term 0 for E2 = +inf only.
+    glass = 63e9 / (1 - 0.22 ** 2)
+    assert materials.effective_modulus(63e9, 0.22) == pytest.approx(glass, rel=1e-15)
+    assert materials.hertz_stiffness(1e-3, 63e9, 0.22, math.inf) == pytest.approx(
+        4 / 3 * glass * math.sqrt(1e-3), rel=1e-15)
+    for bad in (math.nan, -math.inf, -1.0, 0.0):
+        for f, args in ((materials.effective_modulus, (63e9, 0.22)),
+                        (materials.hertz_stiffness, (1e-3, 63e9, 0.22))):
+            with pytest.raises(ValueError, match=f"E2 must be .*got {bad!r}"):
+                f(*args, bad)
+    with pytest.raises(ValueError, match="nu1 must be in .*got 0.7"):
+        materials.effective_modulus(63e9, 0.7)
+
+
+def test_tsuji_gamma0_of_a_perfect_bounce_is_plus_zero():
+    assert math.copysign(1.0, materials.tsuji_gamma0(1.0, 2.05e-3, 9.858e9)) == 1.0
+
+
 def test_bead_8mm_damping_gives_e_09_at_1_m_per_s():
     gamma0 = materials.gamma0_for_cor(0.9, 1.0, 2.05e-3, 9.858e9, 1.5, 1.5, g=9.81)
     assert gamma0 == pytest.approx(5.19995e-7, rel=1e-5)    # the value docs/scenes.md gives
