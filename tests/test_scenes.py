@@ -131,6 +131,16 @@ def test_scene_errors_name_the_bad_value(old, new, message):
         config.loads(SCENE.replace(old, new, 1))
 
 
+def test_a_damping_model_of_another_law_is_named_once():
+    bad = PROPERTIES.replace('{model = "target_e", e = 0.97, v0 = 1.0}',
+                             '{model = "tsuji", e = 0.97}')
+    with pytest.raises(config.ConfigError) as info:
+        config.loads(bad)
+    assert str(info.value) == ("design.materials.glass.damping.model: applies to the law "
+                               "(alpha, beta) = (1.5, 1.25) only, not the material's "
+                               "(1.5, 1.5), got 'tsuji'")
+
+
 def test_a_pulling_load_beyond_gravity_is_named():
     cfg = config.loads(SCENE.replace("F = [0.0, 1.0]", "F = [-2.0, 1.0]"))
     with pytest.raises(config.ConfigError, match=r"steel: g \+ F/m must be >= 0.*-3\.17"):
