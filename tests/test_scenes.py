@@ -215,6 +215,20 @@ def test_bundled_scenes_are_valid():
         design.build(cfg.design)
 
 
+@pytest.mark.parametrize("doc", ["README.md", "docs/scenes.md"])
+def test_the_toml_examples_of_the_docs_are_valid(doc):
+    # Every ```toml block is a whole configuration: read and built as `sweep validate` does
+    # (the README's scene pulled a 2 mm glass bead with -1.5 N, g + F/m = -1.4e5 m/s^2).
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / doc).read_text(encoding="utf-8")
+    blocks = re.findall(r"^```toml\n(.*?)^```", text, flags=re.S | re.M)
+    assert len(blocks) == text.count("```toml")
+    for block in blocks:
+        design.build(config.loads(block, source=doc).design, doc)
+
+
 def test_scene_with_auto_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch):
     text = SCENE.replace('e = ["numeric", "ord1"]\nfields = ["status"]',
                          'e = ["numeric", "auto"]\nfields = ["method_used"]\n'
