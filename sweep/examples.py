@@ -344,9 +344,8 @@ def bounce_example(out: str | Path = "bounce", material: design.Material = STEEL
     Raises
     ------
     ValueError
-        A bad value, an argument that has no effect with this ``source``, or a table that
-        does not span the bounce (:func:`lookup_cor`), before any file or directory is
-        written; the message names the parameter and its value.
+        A bad value, an option of no effect with this ``source`` or a table that does not
+        span the bounce (:func:`lookup_cor`), naming it, before anything is written.
     """
     _check_example_inputs(source, table, method, h0, g, v_stop, options)
     if source == "lookup":
