@@ -428,13 +428,17 @@ def add_report_commands(subparsers: argparse._SubParsersAction) -> argparse.Argu
 def _cmd_export(args):
     from sweep import _format, tables
 
+    if args.no_check and args.variable is not None:
+        args.usage_error(f"argument --variable: names the variable of the lookup check, "
+                         f"which --no-check skips, got {args.variable!r}")
     fmt = "csv" if args.csv else "npz"
     out = args.output or str(Path(args.dataset).with_suffix("." + fmt))
     try:
-        path = tables.export(args.dataset, out, fmt)
-        print(f"wrote {path}")
-        if not args.no_check:
-            err = tables.Table(args.dataset, args.variable).error()
+        # The table first: a bad --variable is refused before any file is written.
+        table = None if args.no_check else tables.Table(args.dataset, args.variable)
+        print(f"wrote {tables.export(args.dataset, out, fmt)}")
+        if table is not None:
+            err = table.error()
             w, held = err["where"], _format.count(err["n_points"], "held-back point")
             print(f"lookup ({err['variable']}, monotone PCHIP): interpolation error against "
                   f"direct computation on {held}: max "
@@ -459,12 +463,13 @@ def _add_export_command(sub):
     fmt.add_argument("--csv", action="store_true", help="CSV, one row per (material, v0, F)")
     fmt.add_argument("--npz", action="store_true", help="NumPy .npz, arrays on (material, "
                                                         "v0, F)")
-    p.add_argument("-o", "--output", metavar="OUT", help="output file (default: SCENE with "
-                                                         "the format's suffix)")
-    p.add_argument("--variable", default=None, help="variable the lookup check interpolates "
-                                                    "(default e_numeric, else e_auto)")
+    p.add_argument("-o", "--output", metavar="OUT", help="output file, written at exactly "
+                   "this path (default: SCENE with the format's suffix)")
+    p.add_argument("--variable", default=None, help="e_<method> variable the lookup check "
+                                                    "interpolates (default e_numeric, else "
+                                                    "e_auto)")
     p.add_argument("--no-check", action="store_true", help="skip the interpolation check")
-    p.set_defaults(func=_cmd_export)
+    p.set_defaults(func=_cmd_export, usage_error=p.error)
 
 
 def _bounce_conflict(args):

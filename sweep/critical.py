@@ -114,10 +114,21 @@ def _threshold(evaluate, start, fallback_start):
     return out
 
 
-def _critical(unknown, alpha, beta, known, method, options):
-    """Threshold of ``unknown`` ("gtilde" or "gamma") given the other one, ``known``."""
+def _check_method(method, options):
+    """Refuse an unknown method, and an option the method does not use, naming it: (24) uses
+    none, the bisection :func:`sweep.api.integrate`'s (Python would raise a TypeError)."""
     if method not in _METHODS:
         raise ValueError(f"method must be one of {_METHODS}, got {method!r}")
+    if method == "approx" and options:
+        raise ValueError("method 'approx' takes no integrator options (method 'numeric' "
+                         f"does), got {', '.join(map(repr, options))}")
+    if method == "numeric":
+        registry.METHODS["numeric"].refuse_unknown(options, extra=("parallel",))
+
+
+def _critical(unknown, alpha, beta, known, method, options):
+    """Threshold of ``unknown`` ("gtilde" or "gamma") given the other one, ``known``."""
+    _check_method(method, options)
     other = "gamma" if unknown == "gtilde" else "gtilde"
     b = Broadcast(("alpha", "beta", other), (alpha, beta, known))
     b.raise_if_invalid()
@@ -171,8 +182,8 @@ def critical_gtilde(alpha: Any, beta: Any, gamma: Any, method: str = "approx",
     method : {"approx", "numeric"}
         Proposition 1, (24), or bisection on the numerical CoR (see the module docstring).
     **integrator_options
-        For ``"numeric"``: passed to :func:`sweep.api.integrate` (``steps``, ``rest_tol``,
-        ``max_steps``).
+        For ``"numeric"`` only: passed to :func:`sweep.api.integrate` (``steps``,
+        ``rest_tol``, ``max_steps``, ...); ``"approx"`` takes none.
 
     Returns
     -------
@@ -183,7 +194,8 @@ def critical_gtilde(alpha: Any, beta: Any, gamma: Any, method: str = "approx",
     Raises
     ------
     ValueError
-        Unknown method; a scalar call with an invalid value (naming it).
+        Unknown method, or an option the method does not use (naming it); a scalar call
+        with an invalid value (naming it).
     """
     return _critical("gtilde", alpha, beta, gamma, method, integrator_options)
 
@@ -201,7 +213,8 @@ def critical_gamma(alpha: Any, beta: Any, gtilde: Any, method: str = "approx",
     method : {"approx", "numeric"}
         ``gamma_c = 1 / (2 C g~^r)`` from (24), or bisection on the numerical CoR.
     **integrator_options
-        For ``"numeric"``: passed to :func:`sweep.api.integrate`.
+        For ``"numeric"`` only: passed to :func:`sweep.api.integrate`; ``"approx"`` takes
+        none.
 
     Returns
     -------
@@ -212,6 +225,7 @@ def critical_gamma(alpha: Any, beta: Any, gtilde: Any, method: str = "approx",
     Raises
     ------
     ValueError
-        Unknown method; a scalar call with an invalid value (naming it).
+        Unknown method, or an option the method does not use (naming it); a scalar call
+        with an invalid value (naming it).
     """
     return _critical("gamma", alpha, beta, gtilde, method, integrator_options)

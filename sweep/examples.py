@@ -124,17 +124,40 @@ def lookup_cor(material: design.Material, g: float, v_lo: float, v_hi: float,
                table: Any = None, n: int = 200) -> tuple[Callable, dict]:
     """CoR from a lookup table: ``v -> (e, gamma, g~)`` and the table's stated error.
 
-    ``table``: a scene dataset holding ``material`` (path or Dataset); None builds one by
-    ``sweep run`` over ``n`` log-spaced speeds in [v_lo, v_hi] at F = 0.
+    Parameters
+    ----------
+    material : Material
+        The bead, which the table must hold (by name).
+    g : float
+        Gravity [m/s^2].
+    v_lo, v_hi : float
+        The impact speeds [m/s] the bounce meets: v_stop and the first impact's.
+    table : path-like or xarray.Dataset, optional
+        A scene dataset; None builds one by ``sweep run`` over ``n`` log-spaced speeds
+        spanning [v_lo, v_hi] at F = 0.
+
+    Raises
+    ------
+    ValueError
+        A table that does not hold the material, or does not span [v_lo, v_hi] at F = 0,
+        before any impact (the lookup's own message, and the span the bounce needs).
     """
     if table is None:
         with tempfile.TemporaryDirectory() as tmp:
-            cfg = config.loads(_table_config(material, g, v_lo, v_hi, n), source="bounce")
+            cfg = config.loads(_table_config(material, g, v_lo, v_hi * (1.0 + 1e-9), n),
+                               source="bounce")
             out = Path(tmp) / "bounce_table.nc"
             runner.run(cfg, out, quiet=True)
             t = tables.Table(out)
     else:
         t = tables.Table(table)
+    try:  # the two ends of the bounce, looked up: the lookup's own checks, once
+        t(np.array([v_lo, v_hi]), 0.0, material.name)
+    except ValueError as exc:
+        name = f" {table}" if isinstance(table, (str, Path)) else ""
+        raise ValueError(f"lookup table{name}: {exc}; the bounce needs {material.name!r} "
+                         f"at F = 0 and impact speeds [v_stop, sqrt(2 g h0)] = [{v_lo:.6g}, "
+                         f"{v_hi:.6g}] m/s") from None
     mat = material
 
     def cor(v: float) -> tuple[float, float, float]:
@@ -321,20 +344,19 @@ def bounce_example(out: str | Path = "bounce", material: design.Material = STEEL
     Raises
     ------
     ValueError
-        A bad value, or an argument that has no effect with this ``source``, before any
-        file is written; the message names the parameter and its value.
+        A bad value, an option of no effect with this ``source`` or a table that does not
+        span the bounce (:func:`lookup_cor`), naming it, before anything is written.
     """
     _check_example_inputs(source, table, method, h0, g, v_stop, options)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    v_hi = first_impact_speed(h0, g) * (1.0 + 1e-9)
     if source == "lookup":
-        cor, err = lookup_cor(material, g, v_stop, v_hi, table)
+        cor, err = lookup_cor(material, g, v_stop, first_impact_speed(h0, g), table)
         label = f"lookup table (stated error {err['max_abs']:.2g})"
     else:
         cor, err, label = direct_cor(material, g, method, **options), None, f"direct, {method}"
     result = bounce(cor, material, h0, g, v_stop, cor_source=label)
     result.table_error = err
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)  # once there is something to write
     csv_path = out / "bounce_impacts.csv"
     _write_csv(result, csv_path)
     files = _plot(result, out) + [csv_path]

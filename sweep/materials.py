@@ -36,10 +36,16 @@ HERTZ_ALPHA = 1.5
 TSUJI = registry.MODELS["tti"]
 
 
+#: Parameters named for the body they belong to, and the property whose domain they take.
+_PROPERTY_OF = {"E1": "E", "nu1": "nu", "E2": "E", "nu2": "nu"}
+
+
 def _check(**values: float) -> None:
+    """Refuse a value outside its domain (:data:`sweep.registry.PHYSICAL`,
+    :data:`sweep.registry.MATERIAL`), naming the parameter as given (``E2``)."""
     domains = {**registry.PHYSICAL, **registry.MATERIAL}
     for name, value in values.items():
-        registry.check_array(name, value, domains)
+        registry.check_array(name, value, {name: domains[_PROPERTY_OF.get(name, name)]})
 
 
 def sphere_mass(radius: float, density: float) -> float:
@@ -59,12 +65,24 @@ def sphere_mass(radius: float, density: float) -> float:
 def effective_modulus(E1: float, nu1: float, E2: float = math.inf, nu2: float = 0.0) -> float:
     """Contact modulus E* [Pa] of two elastic bodies: ``1/E* = (1-nu1^2)/E1 + (1-nu2^2)/E2``.
 
-    ``E2 = inf`` (default) is a rigid floor.
+    Parameters
+    ----------
+    E1, nu1 : float
+        Young's modulus [Pa], > 0, and Poisson's ratio [1], in (-1, 0.5], of the bead.
+    E2, nu2 : float
+        Of the floor; ``E2 = +inf`` (default) is a rigid floor, which no other non-finite
+        value means (NaN or -inf is refused).
+
+    Raises
+    ------
+    ValueError
+        A value outside its domain, naming the parameter and the value.
     """
-    _check(E=E1, nu=nu1)
-    if math.isfinite(E2):
-        _check(E=E2, nu=nu2)
-    compliance = (1.0 - nu1 ** 2) / E1 + ((1.0 - nu2 ** 2) / E2 if math.isfinite(E2) else 0.0)
+    _check(E1=E1, nu1=nu1, nu2=nu2)
+    rigid = E2 == math.inf
+    if not rigid:
+        _check(E2=E2)
+    compliance = (1.0 - nu1 ** 2) / E1 + (0.0 if rigid else (1.0 - nu2 ** 2) / E2)
     return 1.0 / compliance
 
 
@@ -82,7 +100,12 @@ def hertz_stiffness(radius: float, E1: float, nu1: float, E2: float = math.inf,
     E1, nu1 : float
         Young's modulus [Pa] and Poisson's ratio of the bead.
     E2, nu2 : float
-        Of the floor (default: rigid).
+        Of the floor (default: rigid, ``E2 = +inf``; see :func:`effective_modulus`).
+
+    Raises
+    ------
+    ValueError
+        A value outside its domain, naming the parameter and the value.
     """
     _check(radius=radius)
     return 4.0 / 3.0 * effective_modulus(E1, nu1, E2, nu2) * math.sqrt(radius)
@@ -120,7 +143,7 @@ def tsuji_gamma0(e: float, m: float, k: float) -> float:
     """
     _check(e=e, m=m, k=k)
     log_e = math.log(e)
-    xi = -log_e / math.hypot(math.pi, log_e)
+    xi = abs(log_e) / math.hypot(math.pi, log_e)   # -ln e >= 0; abs: e = 1 gives +0.0
     gamma = 4.0 * xi / math.sqrt(5.0)
     per_gamma0, _ = scale(m, k, 1.0, 1.0, *TSUJI, g=0.0)
     return gamma / per_gamma0

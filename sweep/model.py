@@ -180,20 +180,62 @@ _natural_frequency = _ufunc(contact.natural_frequency)
 _damping_ratio = _ufunc(contact.damping_ratio)
 
 
+def _regime_inputs(**values: Any) -> list[np.ndarray]:
+    """The inputs of a regime number, each checked against its domain
+    (:data:`sweep.registry.PARAMETERS`) and the shapes against each other.
+
+    Raises
+    ------
+    ValueError
+        Naming the first offending parameter and value, or the shapes that do not broadcast.
+    """
+    arrays = [registry.check_array(name, value) for name, value in values.items()]
+    check_broadcast(tuple(values), arrays)
+    return arrays
+
+
 def equilibrium(alpha: Any, gtilde: Any) -> Any:
-    """Static equilibrium compression ``u-bar = g~^(1/alpha)`` [1] (report Sec. 3)."""
-    return _equilibrium(np.asarray(alpha, dtype=float), np.asarray(gtilde, dtype=float))
+    """Static equilibrium compression ``u-bar = g~^(1/alpha)`` [1] (report Sec. 3).
+
+    Parameters
+    ----------
+    alpha : array_like
+        Stiffness exponent [1], >= 1.
+    gtilde : array_like
+        Scaled load g~ [1], >= 0, eq. (2).
+
+    Raises
+    ------
+    ValueError
+        A value outside its domain or shapes that do not broadcast, naming the parameters.
+    """
+    return _equilibrium(*_regime_inputs(alpha=alpha, gtilde=gtilde))
 
 
 def natural_frequency(alpha: Any, gtilde: Any) -> Any:
     """Linearised angular frequency about u-bar [1/tau],
-    ``omega_n = sqrt(alpha) g~^((alpha-1)/(2 alpha))``."""
-    return _natural_frequency(np.asarray(alpha, dtype=float), np.asarray(gtilde, dtype=float))
+    ``omega_n = sqrt(alpha) g~^((alpha-1)/(2 alpha))``.
+
+    Parameters and errors as for :func:`equilibrium`.
+    """
+    return _natural_frequency(*_regime_inputs(alpha=alpha, gtilde=gtilde))
 
 
 def damping_ratio(alpha: Any, beta: Any, gamma: Any, gtilde: Any) -> Any:
     """Linearised damping ratio about u-bar [1] (underdamped iff < 1)::
 
         xi = gamma beta / (2 sqrt(alpha)) g~^((2 beta - alpha - 1) / (2 alpha))
+
+    Parameters
+    ----------
+    alpha, beta : array_like
+        Exponents [1], >= 1.
+    gamma, gtilde : array_like
+        Scaled damping and load [1], >= 0, eq. (2).
+
+    Raises
+    ------
+    ValueError
+        A value outside its domain or shapes that do not broadcast, naming the parameters.
     """
-    return _damping_ratio(*(np.asarray(x, dtype=float) for x in (alpha, beta, gamma, gtilde)))
+    return _damping_ratio(*_regime_inputs(alpha=alpha, beta=beta, gamma=gamma, gtilde=gtilde))

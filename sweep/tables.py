@@ -12,6 +12,12 @@ grid (material, v0, F), with each material's m, k, gamma0, alpha, beta, its name
 * in log v0 (log F) where the axis was given with ``spacing = "log"``;
 * no extrapolation: a query outside the table raises ``ValueError`` naming it.
 
+A query is interpolated along F first, on the v0 nodes, then along v0. The PCHIP along F is
+built once per table; along v0, only the four nodes around the query's cell decide the
+PCHIP there, so each query interpolates along F on those four and runs a PCHIP through them:
+its work and memory do not grow with the table (along every node, ~100 bytes a node a
+query, the held-back check of a 200 x 104 table took 6 GB).
+
 :meth:`Table.error` reports the interpolation error against direct computation (the same
 method and settings as the table, at the scaled point of eq. (2)) on *held-back points*:
 points inside every cell, at the quarter, half and three-quarter marks of each axis, which
@@ -22,20 +28,22 @@ lattice four times finer, not a proof. :func:`lookup` is the one-call form.
 (material, v0, F), units in the header) or NumPy ``.npz`` (arrays on (material, v0, F)).
 
 Owns: interpolation of scene datasets, the held-back check and the export formats. May
-import: :mod:`sweep.api`, :mod:`sweep.model`, :mod:`sweep.registry`, numpy; scipy and
-xarray inside the functions (``import sweep`` stays light). Floor 3.
+import: :mod:`sweep.api`, :mod:`sweep.model`, :mod:`sweep.registry`, :mod:`sweep._arrays`,
+numpy; scipy and xarray inside the functions (``import sweep`` stays light). Floor 3.
 """
 from __future__ import annotations
 
 import csv
 import json
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from sweep import api, registry
+from sweep._arrays import check_broadcast
 from sweep.model import scale
 
 __all__ = ["Table", "lookup", "export", "SCENE_DIMS", "HELD_BACK_FRACTIONS"]
@@ -74,6 +82,22 @@ def _unit(ds: Any, name: str) -> str:
     return p.units if p is not None and p.law_units else "1"
 
 
+def _method_of(variable: Any) -> str:
+    """The method of a tabulated CoR ``e_<method>``.
+
+    Raises
+    ------
+    ValueError
+        ``variable`` is not ``e_`` and a method of :data:`sweep.registry.METHODS` (gamma,
+        status, ...): a table interpolates e and computes it directly to check itself.
+    """
+    method = variable[2:] if isinstance(variable, str) and variable.startswith("e_") else None
+    if method not in registry.METHODS:
+        raise ValueError("variable must be a coefficient of restitution e_<method> ("
+                         f"{', '.join('e_' + m for m in registry.METHODS)}), got {variable!r}")
+    return method
+
+
 def _default_variable(ds: Any) -> str:
     for name in ("e_numeric", "e_auto"):
         if name in ds:
@@ -84,15 +108,34 @@ def _default_variable(ds: Any) -> str:
     return str(names[0])
 
 
+#: The nodes of a PCHIP that decide it in one cell: the cell's own two and one on either side,
+#: since the slope at a node comes from its two neighbouring secants (Fritsch & Carlson 1980;
+#: at the ends, scipy's three-point formula). A PCHIP through these nodes alone is, in the
+#: cell, the PCHIP through them all.
+_STENCIL = 4
+#: Queries interpolated together: the work arrays stay bounded (a few hundred bytes a query)
+#: however many queries a call has (Table.error's held-back points are 16 times the table).
+_BLOCK = 1 << 16
+
+
+def _cells(x: np.ndarray, xq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The cell of the increasing nodes ``x`` holding each query ``xq`` (the last cell for
+    the right end) and the query's offset from the cell's left node."""
+    k = np.clip(np.searchsorted(x, xq, side="right") - 1, 0, x.size - 2)
+    return k, xq - x[k]
+
+
+def _cubic(c: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """A piecewise polynomial's local cubic ``c[0] t^3 + c[1] t^2 + c[2] t + c[3]``."""
+    return ((c[0] * t + c[1]) * t + c[2]) * t + c[3]
+
+
 def _pchip_columns(x: np.ndarray, y: np.ndarray, xq: np.ndarray) -> np.ndarray:
     """PCHIP through ``(x, y[:, j])`` evaluated at ``xq[j]``, for every column j."""
     from scipy.interpolate import PchipInterpolator
 
-    pp = PchipInterpolator(x, y, axis=0)
-    k = np.clip(np.searchsorted(x, xq, side="right") - 1, 0, x.size - 2)
-    t = xq - x[k]
-    c = pp.c[:, k, np.arange(xq.size)]
-    return ((c[0] * t + c[1]) * t + c[2]) * t + c[3]
+    k, t = _cells(x, xq)
+    return _cubic(PchipInterpolator(x, y, axis=0).c[:, k, np.arange(xq.size)], t)
 
 
 class Table:
@@ -109,7 +152,8 @@ class Table:
     Raises
     ------
     ValueError
-        Not a scene dataset, or no such variable.
+        Not a scene dataset, a variable that is not an ``e_<method>``, or one the dataset
+        does not have (named).
     """
 
     def __init__(self, dataset: Any, variable: str | None = None) -> None:
@@ -117,9 +161,11 @@ class Table:
         if not all(d in ds.dims for d in SCENE_DIMS):
             raise ValueError(f"not a scene dataset: dimensions {tuple(ds.dims)}, expected "
                              f"{SCENE_DIMS}")
-        self.variable = variable or _default_variable(ds)
-        if self.variable not in ds:
-            raise ValueError(f"the dataset has no variable {self.variable!r}")
+        self.variable = _default_variable(ds) if variable is None else variable
+        self.method = _method_of(self.variable)
+        if self.variable not in ds.data_vars:
+            raise ValueError(f"the dataset has no variable {self.variable!r}; it has "
+                             f"{', '.join(str(v) for v in ds.data_vars if str(v)[:2] == 'e_')}")
         ds = ds.sortby(["v0", "F"])  # axes given as lists need not be increasing
         self.values = ds[self.variable].transpose(*SCENE_DIMS).values.astype(np.float64)
         self.materials = _material_names(ds)
@@ -129,8 +175,8 @@ class Table:
         self.properties = {name: ds[name].values.astype(np.float64)
                            for name in _MATERIAL_VARIABLES}
         self.g = float(ds["g"].values)
-        self.method = self.variable[2:]
         self.options = api.recorded_settings(ds.attrs, self.method)
+        self._F_pieces = self._pchip_along_F()
 
     # -- interpolation --------------------------------------------------------------------
 
@@ -154,58 +200,102 @@ class Table:
                              f"[{lo:g}, {hi:g}]")
         return np.clip(q, lo, hi)
 
-    def _material_index(self, material: Any, n: int) -> np.ndarray:
+    def _material_index(self, material: np.ndarray | None, n: int) -> np.ndarray:
+        """Indices of ``n`` queries' materials (names, flat; None: the table's only one)."""
         if material is None:
             if len(self.materials) != 1:
                 raise ValueError(f"material is required: the table has {self.materials}")
             return np.zeros(n, dtype=np.intp)
-        names = np.broadcast_to(np.asarray(material, dtype=object), (n,))
-        unknown = sorted({str(m) for m in names} - set(self.materials))
+        position = {name: i for i, name in enumerate(self.materials)}
+        unknown = sorted({str(m) for m in material} - position.keys())
         if unknown:
             raise ValueError(f"unknown material {unknown[0]!r}; the table has {self.materials}")
-        return np.array([self.materials.index(str(m)) for m in names], dtype=np.intp)
+        return np.array([position[str(m)] for m in material], dtype=np.intp)
 
-    def _along_F(self, z: np.ndarray, fq: np.ndarray) -> np.ndarray:
-        """(v0 nodes, queries): each material slice interpolated to the queries' F."""
+    def _queries(self, v0: Any, F: Any, material: Any) -> tuple[np.ndarray, ...]:
+        """The queries' v0 [m/s], F [N] and material indices, broadcast and flat, and the
+        broadcast shape.
+
+        Raises
+        ------
+        ValueError
+            v0 or F not real numbers, shapes that do not broadcast (naming the
+            parameters), a missing or unknown material.
+        """
+        given = {"v0": registry.real_array("v0", v0), "F": registry.real_array("F", F)}
+        if material is not None:
+            given["material"] = np.asarray(material, dtype=object)
+        check_broadcast(tuple(given), tuple(given.values()))
+        shape = np.broadcast_shapes(*(a.shape for a in given.values()))
+        flat = {name: np.broadcast_to(a, shape).reshape(-1) for name, a in given.items()}
+        idx = self._material_index(flat.get("material"), flat["v0"].size)
+        return flat["v0"], flat["F"], idx, shape
+
+    def _pchip_along_F(self) -> np.ndarray | None:
+        """The PCHIP along F through every (material, v0) row of the table, built once: its
+        coefficients on (power, F cell, material, v0); None for a single load."""
         from scipy.interpolate import PchipInterpolator
 
         if self.F.size == 1:
-            return np.repeat(z[:, :1], fq.size, axis=1)
-        return PchipInterpolator(self._coord("F", self.F), z, axis=1)(self._coord("F", fq))
+            return None
+        return PchipInterpolator(self._coord("F", self.F), self.values, axis=2).c
 
-    def _interpolate(self, i: int, vq: np.ndarray, fq: np.ndarray) -> np.ndarray:
-        a = self._along_F(self.values[i], fq)
-        if self.v0.size == 1:
-            return a[0]
-        return _pchip_columns(self._coord("v0", self.v0), a, self._coord("v0", vq))
+    def _along_F(self, i: np.ndarray, nodes: np.ndarray, fq: np.ndarray) -> np.ndarray:
+        """e at the queries' loads ``fq`` on the v0 nodes ``nodes`` (query, node) of the
+        queries' materials ``i``."""
+        if self._F_pieces is None:
+            return self.values[i[:, None], nodes, 0]
+        k, t = _cells(self._coord("F", self.F), self._coord("F", fq))
+        return _cubic(self._F_pieces[:, k[:, None], i[:, None], nodes], t[:, None])
+
+    def _interpolate(self, i: np.ndarray, vq: np.ndarray, fq: np.ndarray) -> np.ndarray:
+        """e at (material index, v0, F) queries inside the table: along F on the v0 nodes
+        of each query's stencil, then PCHIP along v0 through those, one stencil at a time."""
+        n = self.v0.size
+        if n == 1:
+            return self._along_F(i, np.zeros((i.size, 1), dtype=np.intp), fq)[:, 0]
+        x, xq = self._coord("v0", self.v0), self._coord("v0", vq)
+        w = min(n, _STENCIL)
+        first = np.clip(_cells(x, xq)[0] - 1, 0, n - w)
+        y = self._along_F(i, first[:, None] + np.arange(w), fq)
+        out = np.empty(vq.size)
+        for s in np.unique(first):
+            sel = first == s
+            out[sel] = _pchip_columns(x[s:s + w], y[sel].T, xq[sel])
+        return out
 
     def __call__(self, v0: Any, F: Any = None, material: Any = None) -> np.ndarray:
         """Interpolated e [1] at impact speeds v0 [m/s] and loads F [N] (broadcast).
 
         ``F`` may be omitted when the table has one load, ``material`` when it has one
         material.
+
+        Raises
+        ------
+        ValueError
+            v0 or F not real numbers (a string is not parsed) or outside the table, shapes
+            that do not broadcast (naming v0, F, material), a missing or unknown material.
         """
         if F is None:
             if self.F.size != 1:
                 raise ValueError(f"F is required: the table has loads {self.F.min():g} .. "
                                  f"{self.F.max():g} N")
             F = self.F[0]
-        vq, fq = (np.asarray(x, dtype=np.float64) for x in np.broadcast_arrays(v0, F))
-        shape = vq.shape
-        vq, fq = self._in_range("v0", vq.reshape(-1)), self._in_range("F", fq.reshape(-1))
-        idx = self._material_index(material, vq.size)
+        vq, fq, idx, shape = self._queries(v0, F, material)
+        vq, fq = self._in_range("v0", vq), self._in_range("F", fq)
         out = np.empty(vq.size)
-        for i in np.unique(idx):
-            sel = idx == i
-            out[sel] = self._interpolate(int(i), vq[sel], fq[sel])
+        for start in range(0, vq.size, _BLOCK):
+            block = slice(start, start + _BLOCK)
+            out[block] = self._interpolate(idx[block], vq[block], fq[block])
         return out.reshape(shape)
 
     # -- direct computation and the held-back check ---------------------------------------
 
     def direct(self, v0: Any, F: Any, material: Any = None) -> np.ndarray:
-        """e computed directly (the table's method and settings) at (v0, F, material)."""
-        vq, fq = (np.asarray(x, dtype=np.float64) for x in np.broadcast_arrays(v0, F))
-        idx = self._material_index(material, vq.size).reshape(vq.shape)
+        """e [1] computed directly (the table's method and settings) at impact speeds v0
+        [m/s], loads F [N] and materials (broadcast; errors as for :meth:`__call__`)."""
+        vq, fq, idx, shape = self._queries(v0, F, material)
+        vq, fq, idx = (a.reshape(shape) for a in (vq, fq, idx))
         p = {name: values[idx] for name, values in self.properties.items()}
         gamma, gtilde = scale(p["m"], p["k"], p["gamma0"], vq, p["alpha"], p["beta"], self.g,
                               fq)
@@ -275,16 +365,35 @@ def lookup(dataset: Any, v0: Any, F: Any = None, material: Any = None,
     return Table(dataset, variable)(v0, F, material)
 
 
-def _long_rows(ds: Any, variables: list[str]) -> tuple[list[str], list[list[Any]]]:
-    columns = ["material", "v0 [m/s]", "F [N]"] + [f"{v} [1]" for v in variables]
+def _rows(ds: Any, variables: list[str]) -> Iterator[list[str]]:
+    """The CSV's rows, one per (material, v0, F), made as they are written: the file's
+    size does not bound the memory used (all rows at once took ~600 bytes each)."""
     arrays = [ds[v].transpose(*SCENE_DIMS).values for v in variables]
-    rows = []
+    v0, F = ds["v0"].values, ds["F"].values
     for i, name in enumerate(_material_names(ds)):
-        for j, v0 in enumerate(ds["v0"].values):
-            for k, F in enumerate(ds["F"].values):
-                rows.append([str(name), repr(float(v0)), repr(float(F))]
-                            + [repr(float(a[i, j, k])) for a in arrays])
-    return columns, rows
+        for j, v in enumerate(v0):
+            for k, f in enumerate(F):
+                yield [name, repr(float(v)), repr(float(f))] + [repr(float(a[i, j, k]))
+                                                                  for a in arrays]
+
+
+def _write_csv(ds: Any, path: Path, variables: list[str]) -> None:
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(["material", "v0 [m/s]", "F [N]"] + [f"{v} [1]" for v in variables])
+        w.writerows(_rows(ds, variables))
+
+
+def _write_npz(ds: Any, path: Path, variables: list[str]) -> None:
+    units = {name: _unit(ds, name) for name in
+             ["v0", "F", "g", *_MATERIAL_VARIABLES, *variables]}
+    # Through an open file: given a name, numpy.savez appends ".npz" to one without it.
+    with open(path, "wb") as f:
+        np.savez(f, material=np.array(_material_names(ds)),
+                 v0=ds["v0"].values, F=ds["F"].values, g=ds["g"].values,
+                 units=np.array(json.dumps(units)),
+                 **{n: ds[n].values for n in _MATERIAL_VARIABLES},
+                 **{v: ds[v].transpose(*SCENE_DIMS).values for v in variables})
 
 
 def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
@@ -296,7 +405,8 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
     dataset : path-like or xarray.Dataset
         A scene dataset.
     path : path-like
-        Output file.
+        Output file, written at exactly this path whatever its suffix (``-o x.csv`` with
+        the npz format writes x.csv, not numpy's x.csv.npz).
     fmt : {"csv", "npz"}, optional
         Format (default: from the suffix of ``path``).
     variables : list of str, optional
@@ -305,11 +415,16 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
     Returns
     -------
     Path
-        The file written. CSV: one row per (material, v0, F), the unit in each column name.
-        npz: ``material`` (the names), ``v0`` [m/s], ``F`` [N], each variable on
-        (material, v0, F), the per-material ``m``, ``k``, ``gamma0``, ``alpha``, ``beta``,
-        ``g`` and a JSON ``units`` string (k and gamma0 whose unit depends on the law:
-        the rule, e.g. ``"N m^-alpha"``).
+        The file written, ``path``. CSV: one row per (material, v0, F), the unit in each
+        column name, written row by row (bounded memory). npz: ``material`` (the names),
+        ``v0`` [m/s], ``F`` [N], each variable on (material, v0, F), the per-material
+        ``m``, ``k``, ``gamma0``, ``alpha``, ``beta``, ``g`` and a JSON ``units`` string
+        (k and gamma0 whose unit depends on the law: the rule, e.g. ``"N m^-alpha"``).
+
+    Raises
+    ------
+    ValueError
+        An unknown format, not a scene dataset, or a variable it does not have (named).
     """
     ds = _open(dataset)
     path = Path(path)
@@ -321,18 +436,9 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
     if variables is None:
         variables = [v for v in ("gamma", "gtilde") if v in ds] + [
             str(v) for v in ds.data_vars if str(v).startswith("e_")]
-    if fmt == "csv":
-        columns, rows = _long_rows(ds, variables)
-        with open(path, "w", newline="", encoding="utf-8") as f:
-            w = csv.writer(f)
-            w.writerow(columns)
-            w.writerows(rows)
-        return path
-    units = {name: _unit(ds, name) for name in
-             ["v0", "F", "g", *_MATERIAL_VARIABLES, *variables]}
-    np.savez(path, material=np.array(_material_names(ds)),
-             v0=ds["v0"].values, F=ds["F"].values, g=ds["g"].values,
-             units=np.array(json.dumps(units)),
-             **{n: ds[n].values for n in _MATERIAL_VARIABLES},
-             **{v: ds[v].transpose(*SCENE_DIMS).values for v in variables})
+    missing = [v for v in variables if v not in ds.data_vars]
+    if missing:
+        raise ValueError(f"the dataset has no variable {missing[0]!r}; it has "
+                         f"{', '.join(map(str, ds.data_vars))}")
+    (_write_csv if fmt == "csv" else _write_npz)(ds, path, variables)
     return path

@@ -52,6 +52,17 @@ def test_scalar_invalid_raises_naming_argument(call, name):
         call()
 
 
+@pytest.mark.parametrize("call, named", [
+    (lambda: K.critical_gtilde(1.5, 1.5, 0.01, steps=24), "method 'approx' takes no .*'steps'"),
+    (lambda: K.critical_gamma(1.5, 1.5, 1.0, method="approx", tol=1e-6), "approx.*'tol'"),
+    (lambda: K.critical_gtilde(1.5, 1.5, 0.01, method="numeric", step=24),
+     "unknown option 'step' for method 'numeric'; allowed: tol, steps"),
+])
+def test_options_the_method_does_not_use_are_refused_naming_them(call, named):
+    with pytest.raises(ValueError, match=named):
+        call()
+
+
 def test_numeric_gtilde_approaches_approx_as_gamma_vanishes():
     """Figs. 8-11: (24) is the small-gamma limit; the relative gap shrinks with gamma.
 

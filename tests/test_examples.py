@@ -1,5 +1,6 @@
 """The bouncing-ball example (sweep.examples, ``sweep example bounce``)."""
 import csv
+import dataclasses
 import math
 import re
 
@@ -146,3 +147,63 @@ def test_cli_bounce_names_itself_in_a_fault_of_the_input(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("sweep example bounce: error: ") and "missing.toml" in err, err
     assert len(err.splitlines()) == 1 and "unexpected" not in err
+
+
+# --------------------------------------------------------------------------- a given lookup table
+
+NARROW_TABLE = """
+title = "steel ball, 5 cm/s to 5 m/s"
+[design]
+kind = "scene"
+v0 = {start = 0.05, stop = 5.0, num = 40, spacing = "log"}
+F = 0.0
+[design.materials.steel_ball]
+law = "kk"
+m = 0.154
+k = 3.6138e10
+gamma0 = 1.5237e-6
+[outputs]
+e = ["ord1"]
+"""
+
+
+@pytest.fixture(scope="module")
+def narrow_table(tmp_path_factory):
+    from sweep.sweeps import config, runner
+
+    path = tmp_path_factory.mktemp("bounce") / "narrow.nc"
+    runner.run(config.loads(NARROW_TABLE, source="narrow.toml"), path, quiet=True)
+    return path
+
+
+@pytest.mark.parametrize("kw, expected", [
+    # v_stop = 1e-5 m/s: the bounce may meet speeds below the table's 0.05 m/s.
+    (dict(), r"v0 = 1e-05 is outside the table \[0.05, 5\]; the bounce needs 'steel_ball' "
+             r"at F = 0 and impact speeds \[v_stop, sqrt\(2 g h0\)\] = \[1e-05, 4.4294"),
+    (dict(h0=2.0, v_stop=0.05), r"v0 = 6.264.* is outside the table"),     # sqrt(2 g 2 m)
+    (dict(material=dataclasses.replace(examples.STEEL_BALL, name="glass"), v_stop=0.05),
+     "unknown material 'glass'"),
+])
+def test_bounce_refuses_a_table_that_does_not_span_it_before_writing(tmp_path, narrow_table,
+                                                                       kw, expected):
+    out = tmp_path / "out"
+    with pytest.raises(ValueError, match=f"^lookup table {re.escape(str(narrow_table))}: "
+                                         f"{expected}"):
+        examples.bounce_example(out, source="lookup", table=narrow_table, **kw)
+    assert not out.exists()
+
+
+def test_cli_bounce_with_a_narrow_table(tmp_path, narrow_table, capsys):
+    out = tmp_path / "out"
+    assert main(["example", "bounce", "--cor", "lookup", "--table", str(narrow_table),
+                 "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("sweep example bounce: error: lookup table ") and \
+        err.count("\n") == 1 and "outside the table" in err
+    assert not out.exists()
+    # With v_stop at the table's lowest speed every impact is inside it.
+    assert main(["example", "bounce", "--cor", "lookup", "--table", str(narrow_table),
+                 "--out", str(out), "--v-stop", "0.05"]) == 0
+    with open(out / "bounce_impacts.csv", newline="") as f:
+        speeds = [float(row[2]) for row in list(csv.reader(f))[1:]]
+    assert speeds[0] == pytest.approx(math.sqrt(2 * 9.81)) and min(speeds) >= 0.05

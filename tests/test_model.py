@@ -62,6 +62,35 @@ def test_regime_numbers():
     assert damping_ratio(1.0, 1.0, 0.3, 5.0) == pytest.approx(0.15)
 
 
+@pytest.mark.parametrize("call, named", [
+    (lambda: equilibrium(0.5, 1.0), r"alpha must be >= 1.*got 0\.5"),
+    (lambda: equilibrium(1.5, np.nan), "gtilde must be finite, got nan"),
+    (lambda: equilibrium("1.5", 1.0), "alpha must be a real number.*'1.5'"),
+    (lambda: natural_frequency(1.5, -1.0), r"gtilde must be >= 0.*got -1\.0"),
+    (lambda: natural_frequency(1.5, [1.0, -2.0]), r"gtilde must be >= 0.*got -2\.0"),
+    (lambda: damping_ratio(1.5, 0.9, 0.1, 1.0), r"beta must be >= 1.*got 0\.9"),
+    (lambda: damping_ratio(1.5, 1.5, -1.0, 1.0), r"gamma must be >= 0.*got -1\.0"),
+    (lambda: damping_ratio([1.5, 1.5], 1.5, [0.1, 0.2, 0.3], 1.0),
+     r"shapes of alpha \(2,\), gamma \(3,\) do not broadcast"),
+])
+def test_regime_numbers_refuse_bad_input_naming_it(call, named):
+    with pytest.raises(ValueError, match=named):
+        call()
+
+
+def test_regime_numbers_of_arrays_match_the_formulas():
+    alpha, beta = np.array([1.0, 1.5, 1.5]), np.array([1.0, 1.5, 2.5])
+    gamma, gtilde = 0.2, np.array([[0.5], [3.0]])
+    np.testing.assert_allclose(equilibrium(alpha, gtilde), gtilde ** (1 / alpha), rtol=1e-15)
+    np.testing.assert_allclose(natural_frequency(alpha, gtilde),
+                               np.sqrt(alpha) * gtilde ** ((alpha - 1) / (2 * alpha)),
+                               rtol=1e-15)
+    np.testing.assert_allclose(
+        damping_ratio(alpha, beta, gamma, gtilde),
+        gamma * beta / (2 * np.sqrt(alpha)) * gtilde ** ((2 * beta - alpha - 1) / (2 * alpha)),
+        rtol=1e-14)
+
+
 KK = dict(alpha=1.5, beta=1.5)
 
 

@@ -131,6 +131,16 @@ def test_scene_errors_name_the_bad_value(old, new, message):
         config.loads(SCENE.replace(old, new, 1))
 
 
+def test_a_damping_model_of_another_law_is_named_once():
+    bad = PROPERTIES.replace('{model = "target_e", e = 0.97, v0 = 1.0}',
+                             '{model = "tsuji", e = 0.97}')
+    with pytest.raises(config.ConfigError) as info:
+        config.loads(bad)
+    assert str(info.value) == ("design.materials.glass.damping.model: applies to the law "
+                               "(alpha, beta) = (1.5, 1.25) only, not the material's "
+                               "(1.5, 1.5), got 'tsuji'")
+
+
 def test_a_pulling_load_beyond_gravity_is_named():
     cfg = config.loads(SCENE.replace("F = [0.0, 1.0]", "F = [-2.0, 1.0]"))
     with pytest.raises(config.ConfigError, match=r"steel: g \+ F/m must be >= 0.*-3\.17"):
@@ -149,6 +159,25 @@ def test_material_properties_hertz_and_target_damping():
     bad = PROPERTIES.replace("nu = 0.22\nfloor", "nu = 0.6\nfloor")
     with pytest.raises(config.ConfigError, match=r"glass.nu: must be in \(-1, 0.5\], got 0.6"):
         config.loads(bad)
+
+
+def test_only_plus_inf_is_a_rigid_floor():
+    # 1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2, the floor's term 0 for E2 = +inf only.
+    glass = 63e9 / (1 - 0.22 ** 2)
+    assert materials.effective_modulus(63e9, 0.22) == pytest.approx(glass, rel=1e-15)
+    assert materials.hertz_stiffness(1e-3, 63e9, 0.22, math.inf) == pytest.approx(
+        4 / 3 * glass * math.sqrt(1e-3), rel=1e-15)
+    for bad in (math.nan, -math.inf, -1.0, 0.0):
+        for f, args in ((materials.effective_modulus, (63e9, 0.22)),
+                        (materials.hertz_stiffness, (1e-3, 63e9, 0.22))):
+            with pytest.raises(ValueError, match=f"E2 must be .*got {bad!r}"):
+                f(*args, bad)
+    with pytest.raises(ValueError, match="nu1 must be in .*got 0.7"):
+        materials.effective_modulus(63e9, 0.7)
+
+
+def test_tsuji_gamma0_of_a_perfect_bounce_is_plus_zero():
+    assert math.copysign(1.0, materials.tsuji_gamma0(1.0, 2.05e-3, 9.858e9)) == 1.0
 
 
 def test_bead_8mm_damping_gives_e_09_at_1_m_per_s():
@@ -184,6 +213,20 @@ def test_bundled_scenes_are_valid():
         cfg = config.load(root / f"{name}.toml")
         assert cfg.design.kind == "scene"
         design.build(cfg.design)
+
+
+@pytest.mark.parametrize("doc", ["README.md", "docs/scenes.md"])
+def test_the_toml_examples_of_the_docs_are_valid(doc):
+    # Every ```toml block is a whole configuration: read and built as `sweep validate` does
+    # (the README's scene pulled a 2 mm glass bead with -1.5 N, g + F/m = -1.4e5 m/s^2).
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / doc).read_text(encoding="utf-8")
+    blocks = re.findall(r"^```toml\n(.*?)^```", text, flags=re.S | re.M)
+    assert len(blocks) == text.count("```toml")
+    for block in blocks:
+        design.build(config.loads(block, source=doc).design, doc)
 
 
 def test_scene_with_auto_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch):

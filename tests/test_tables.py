@@ -102,3 +102,118 @@ def test_a_scene_file_written_before_material_name_still_reads(scene):
     table, new = tables.Table(old), tables.Table(scene)
     assert table.materials == new.materials == ["steel", "bead"]
     assert table(1.0, 0.1, "bead") == new(1.0, 0.1, "bead")
+
+
+def _synthetic(v0, F, e, log_v0=False):
+    """A scene dataset of one material ("a") holding e on (v0, F), for tables' own checks."""
+    import xarray as xr
+
+    ds = xr.Dataset(
+        {"e_numeric": (tables.SCENE_DIMS, e[None]),
+         **{name: ("material", [value]) for name, value in
+            dict(m=0.154, k=3.6138e10, gamma0=1.5237e-6, alpha=1.5, beta=1.5).items()},
+         "material_name": ("material", ["a"]), "g": 9.81},
+        coords={"material": [0], "v0": v0, "F": F})
+    if log_v0:
+        ds["v0"].attrs["spacing"] = "log"
+    return ds
+
+
+def _two_pass_pchip(v0, F, e, vq, fq, log_v0):
+    """The documented interpolant, the slow way: PCHIP along F on every v0 node, then
+    PCHIP along v0 through all of them, for each query on its own."""
+    from scipy.interpolate import PchipInterpolator
+
+    x = np.log(v0) if log_v0 else v0
+    out = []
+    for v, f in zip(vq, fq):
+        column = PchipInterpolator(F, e, axis=1)(f)
+        out.append(PchipInterpolator(x, column)(np.log(v) if log_v0 else v))
+    return np.array(out)
+
+
+def test_a_query_costs_the_same_memory_whatever_the_table_size():
+    import tracemalloc
+
+    rng = np.random.default_rng(7)
+    F = np.array([0.0, 0.1, 0.3, 0.35, 1.0])
+    peaks = {}
+    for n in (20, 400):
+        v0 = np.sort(rng.uniform(0.01, 10.0, n))              # an irregular axis
+        e = rng.uniform(0.2, 0.9, (n, F.size))                  # not monotone: slopes matter
+        table = tables.Table(_synthetic(v0, F, e))
+        vq, fq = rng.uniform(v0[0], v0[-1], 4000), rng.uniform(0.0, 1.0, 4000)
+        vq[:4] = v0[0], v0[1], v0[-2], v0[-1]                    # both ends of the axis
+        tracemalloc.start()
+        got = table(vq, fq)
+        peaks[n] = tracemalloc.get_traced_memory()[1] / vq.size
+        tracemalloc.stop()
+        want = _two_pass_pchip(v0, F, e, vq[:300], fq[:300], False)
+        np.testing.assert_allclose(got[:300], want, rtol=1e-13, atol=1e-15)
+    # Interpolating along every v0 node took ~100 bytes a node a query (40 kB here).
+    assert peaks[400] < 1000 and peaks[400] < 1.5 * peaks[20], peaks
+
+
+def test_a_log_axis_is_interpolated_in_log_v0():
+    rng = np.random.default_rng(8)
+    v0, F = np.geomspace(0.01, 10.0, 30), np.array([0.0, 0.5, 1.0])
+    e = rng.uniform(0.2, 0.9, (30, 3))
+    vq, fq = np.geomspace(0.0101, 9.9, 50), np.full(50, 0.7)
+    got = tables.Table(_synthetic(v0, F, e, log_v0=True))(vq, fq)
+    np.testing.assert_allclose(got, _two_pass_pchip(v0, F, e, vq, fq, True), rtol=1e-13)
+
+
+def test_export_writes_csv_row_by_row(tmp_path):
+    import tracemalloc
+
+    v0, F = np.linspace(0.1, 10.0, 250), np.linspace(0.0, 1.0, 200)
+    ds = _synthetic(v0, F, np.full((250, 200), 0.5))
+    tracemalloc.start()
+    tables.export(ds, tmp_path / "t.csv")
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    with open(tmp_path / "t.csv", newline="") as f:
+        rows = list(csv.reader(f))
+    assert len(rows) == 1 + 250 * 200
+    assert rows[1 + 200 + 3] == ["a", repr(float(v0[1])), repr(float(F[3])), "0.5"]
+    assert peak < 2e6, peak          # all 50,000 rows at once took ~30 MB
+
+
+def test_export_writes_exactly_the_path_asked(scene, tmp_path, capsys):
+    path = tables.export(scene, tmp_path / "t.csv", "npz")
+    assert path == tmp_path / "t.csv" and not (tmp_path / "t.csv.npz").exists()
+    with np.load(path, allow_pickle=False) as z:
+        assert z["e_numeric"].shape == (2, 25, 6)
+    out = tmp_path / "u.csv"
+    assert main(["export", str(scene), "--npz", "-o", str(out), "--no-check"]) == 0
+    assert capsys.readouterr().out == f"wrote {out}\n"
+    assert out.exists() and not (tmp_path / "u.csv.npz").exists()
+
+
+def test_export_check_of_a_variable_that_is_not_e_writes_nothing(scene, tmp_path, capsys):
+    out = tmp_path / "t.csv"
+    assert main(["export", str(scene), "--csv", "-o", str(out), "--variable", "gamma"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "variable must be a coefficient of restitution " \
+        "e_<method>" in err and "got 'gamma'" in err
+    assert not out.exists()
+    with pytest.raises(SystemExit) as info:
+        main(["export", str(scene), "--csv", "-o", str(out), "--variable", "e_numeric",
+              "--no-check"])
+    assert info.value.code == 2 and "--variable" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="no variable 'e_sp'; it has e_numeric"):
+        tables.Table(scene, "e_sp")
+
+
+def test_lookup_refuses_strings_and_names_shapes(scene):
+    with pytest.raises(ValueError, match=r"v0 must be a real number .*'1\.0' \(str\)"):
+        sweep.lookup(scene, v0="1.0", F=0.0, material="steel")
+    with pytest.raises(ValueError, match=r"F must be a real number"):
+        sweep.lookup(scene, v0=1.0, F="0", material="steel")
+    with pytest.raises(ValueError, match=r"shapes of v0 \(3,\), F \(2,\) do not broadcast"):
+        sweep.lookup(scene, v0=[1.0, 2.0, 3.0], F=[0.0, 0.1], material="steel")
+    with pytest.raises(ValueError, match=r"shapes of v0 \(2,\), material \(3,\)"):
+        sweep.lookup(scene, v0=[1.0, 2.0], F=0.0, material=["steel"] * 3)
+    table = tables.Table(scene)
+    got = table(np.array([[1.0], [2.0]]), 0.1, ["steel", "bead", "steel"])
+    assert got.shape == (2, 3) and got[1, 1] == table(2.0, 0.1, "bead")

@@ -578,8 +578,8 @@ def _scene_damping(tab, law):
     sub.finish()
     need = {"tsuji": registry.MODELS["tti"], "kuwabara_kono": registry.MODELS["kk"]}
     if model in need and law != need[model]:
-        sub.error("model", f"applies to the law (alpha, beta) = {need[model]} only, got "
-                           f"{law}", model)
+        sub.error("model", f"applies to the law (alpha, beta) = {need[model]} only, not the "
+                           f"material's {law}", model)
     if model == "kuwabara_kono" and not (tab.has("E") and tab.has("nu")):
         sub.error("model", "kuwabara_kono needs the bead's E and nu in the material", model)
     if model == "kuwabara_kono":
