@@ -54,15 +54,17 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def _int_at_least(low):
-    """An argparse ``type=``: an integer >= ``low``."""
+def _int_at_least(low, high=None):
+    """An argparse ``type=``: an integer >= ``low`` (and <= ``high``, if given)."""
+    rule = f">= {low}" if high is None else f"from {low} to {high:,}"
+
     def convert(text):
         try:
             value = int(text)
         except ValueError:
             value = low - 1
-        if value < low:
-            raise argparse.ArgumentTypeError(f"must be an integer >= {low}, got {text!r}")
+        if not low <= value <= (value if high is None else high):
+            raise argparse.ArgumentTypeError(f"must be an integer {rule}, got {text!r}")
         return value
     return convert
 
@@ -116,7 +118,7 @@ def _add_debug(p):
 def _add_limit_options(p):
     from sweep.sweeps import limits
 
-    p.add_argument("--chunk-size", type=_positive_int, metavar="N",
+    p.add_argument("--chunk-size", type=_int_at_least(1, limits.MAX_CHUNK_SIZE), metavar="N",
                    help="points per chunk (default: the configuration's run.chunk_size)")
     p.add_argument("--max-points", type=_positive_int, metavar="N",
                    default=limits.MAX_POINTS,

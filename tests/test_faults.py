@@ -472,7 +472,8 @@ def _non_sweep_netcdf(path):
 
 @pytest.mark.parametrize("case", [
     "not-utf8", "deep", "dev-zero", "oversized", "axis", "zarr", "long-name", "directory",
-    "chunk-negative", "chunk-zero", "info-not-sweep", "scheduler"])
+    "chunk-negative", "chunk-zero", "chunk-huge", "chunk-huge-toml", "info-not-sweep",
+    "scheduler"])
 def test_input_faults_end_in_one_line(tmp_path, capsys, case):
     cfg = tmp_path / "c.toml"
     cfg.write_text(GRID)
@@ -488,6 +489,9 @@ def test_input_faults_end_in_one_line(tmp_path, capsys, case):
         "directory": ("out.nc is a directory",),
         "chunk-negative": ("--chunk-size", "-5"),
         "chunk-zero": ("--chunk-size", "'0'"),
+        "chunk-huge": ("--chunk-size", f"from 1 to {limits.MAX_CHUNK_SIZE:,}", "1" + "0" * 23),
+        "chunk-huge-toml": ("run.chunk_size", f"from 1 to {limits.MAX_CHUNK_SIZE:,}",
+                            "1" + "0" * 23, cfg),
         "info-not-sweep": ("not a sweep output", "x.nc"),
         "scheduler": ("cannot reach the Dask scheduler", "'nonsense'"),
     }[case]
@@ -512,13 +516,17 @@ def test_input_faults_end_in_one_line(tmp_path, capsys, case):
         argv += ["--chunk-size", "-5"]
     elif case == "chunk-zero":
         argv += ["--chunk-size", "0"]
+    elif case == "chunk-huge":           # beyond the file's 64-bit attribute
+        argv += ["--chunk-size", "1" + "0" * 23]
+    elif case == "chunk-huge-toml":
+        cfg.write_text(GRID.replace("chunk_size = 10", "chunk_size = 1" + "0" * 23))
     elif case == "info-not-sweep":
         _non_sweep_netcdf(tmp_path / "x.nc")
         argv = ["info", str(tmp_path / "x.nc")]
     elif case == "scheduler":
         pytest.importorskip("distributed")
         argv += ["--scheduler", "nonsense"]
-    if case.startswith("chunk-"):
+    if case in ("chunk-negative", "chunk-zero", "chunk-huge"):
         with pytest.raises(SystemExit) as info:
             cli.main(argv)
         assert info.value.code == 2

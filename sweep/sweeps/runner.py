@@ -599,8 +599,8 @@ def _prepare(cfg, output, chunk_size, quiet, log, in_memory=False):
         _check_output_path(output)
     if chunk_size is None:
         chunk_size = cfg.chunk_size
-    elif isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
-        raise RunError(f"chunk size must be an integer >= 1, got {chunk_size!r}")
+    elif not _config.is_chunk_size(chunk_size):
+        raise RunError(f"chunk size must be {_config.CHUNK_SIZE_RULE}, got {chunk_size!r}")
     design = _design.build(cfg.design, cfg.source)
     job = _Job(cfg=cfg, design=design, plan=ComputePlan.from_config(cfg),
                layout=design.layout(), output=output, chunk_size=int(chunk_size), log=log,
@@ -1027,7 +1027,8 @@ def run(cfg: _config.Config | str | Path, output: str | Path | None = None, *,
     quiet : bool
         No progress bar, no messages.
     chunk_size : int, optional
-        Points per chunk, >= 1 (default: the configuration's ``run.chunk_size``).
+        Points per chunk, 1 to :data:`sweep.sweeps.limits.MAX_CHUNK_SIZE` (default: the
+        configuration's ``run.chunk_size``).
     scheduler : str or distributed.Client, optional
         Address of a Dask scheduler (``tcp://host:port``): run the chunks on that cluster.
     log : callable, optional
