@@ -241,6 +241,20 @@ def test_leftovers_of_an_interrupted_cleanup_never_replace_a_good_output(tmp_pat
     assert out.read_bytes() == before
 
 
+@pytest.mark.parametrize("restart", [False, True])
+def test_a_plain_file_in_place_of_the_partial_directory_is_named_and_kept(tmp_path, capsys,
+                                                                         restart):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    store.partial_dir(out).write_text("someone's notes")
+    argv = ["run", str(cfg), "-o", str(out), "--quiet"] + ["--restart"] * restart
+    assert cli.main(argv) == 1
+    one_line_error(capsys.readouterr().err, store.partial_dir(out),
+                   "not a run's partial directory", "-o")
+    assert store.partial_dir(out).read_text() == "someone's notes" and not out.exists()
+
+
 def _rewrite_chunk(path, change):
     """Rewrite a chunk file as a valid npz whose content ``change`` altered."""
     with np.load(path) as z:
