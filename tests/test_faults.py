@@ -6,6 +6,8 @@ without its manifest, damaged chunk files, a full disk and a read-only target (o
 tmpfs, skipped where the test cannot mount one), a huge design, a bad scheduler address,
 bad inputs on the command line, and a signal during the final clean-up.
 """
+import errno
+import io
 import json
 import os
 import signal
@@ -432,6 +434,63 @@ def test_a_read_only_target_is_a_clear_error_and_the_output_survives(tmpfs, caps
     assert cli.main(["run", str(cfg), "-o", str(out), "--restart", "--quiet"]) == 1
     one_line_error(capsys.readouterr().err, f"cannot write in {fs}", "Read-only file system")
     assert out.read_bytes() == before and sorted(os.listdir(fs)) == ["out.nc"]
+
+
+def test_no_free_inode_is_said_so_not_permission_denied(tmpfs, capsys):
+    # Four inodes: the root, the lock, the partial directory and its manifest; the
+    # assembled file finds none (netCDF called that "Permission denied").
+    fs = tmpfs("inodes", "4m", "nr_inodes=4")
+    cfg = fs.parent / "c.toml"
+    cfg.write_text(GRID)
+    assert cli.main(["run", str(cfg), "-o", str(fs / "out.nc"), "--quiet"]) == 1
+    line = one_line_error(capsys.readouterr().err, "no free inodes left on the device of",
+                          store.partial_dir(fs / "out.nc"))
+    assert "Permission denied" not in line
+
+
+def _failing_open(monkeypatch, module, name, code):
+    """``open`` in ``module`` as a full disk has it: a file whose name starts with ``name``
+    is created, and its first write raises errno ``code`` as write(2) does (no file
+    name)."""
+    real = open
+
+    class Refused(io.FileIO):
+        def write(self, data):
+            raise OSError(code, os.strerror(code))
+
+    def fake(path, mode="r", *args, **kwargs):
+        if Path(path).name.startswith(name):
+            return Refused(path, mode.replace("b", ""))
+        return real(path, mode, *args, **kwargs)
+
+    monkeypatch.setattr(module, "open", fake, raising=False)
+
+
+def test_a_full_disk_at_the_manifest_names_it(tmp_path, monkeypatch, capsys):
+    from sweep.store import partial
+    _failing_open(monkeypatch, partial, "manifest.json", errno.ENOSPC)
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 1
+    one_line_error(capsys.readouterr().err, store.partial_dir(out) / "manifest.json",
+                   "No space left on device")
+    assert list(store.partial_dir(out).iterdir()) == []  # no temporary file left
+
+
+def test_a_quota_at_the_assembled_file_is_called_a_quota(tmp_path, monkeypatch, capsys):
+    from sweep.store import netcdf
+
+    def over_quota(path, mode="r", *args, **kwargs):  # an inode quota refuses the create
+        raise OSError(errno.EDQUOT, os.strerror(errno.EDQUOT), str(path))
+
+    monkeypatch.setattr(netcdf, "open", over_quota, raising=False)
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 1
+    one_line_error(capsys.readouterr().err, store.partial_dir(out) / "assembling.nc",
+                   os.strerror(errno.EDQUOT), "kept")
 
 
 def _closed_port():

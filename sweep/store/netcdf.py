@@ -82,6 +82,11 @@ class NetCDFWriter:
         self.path = Path(path)
         self.layout = layout
         self.variables = tuple(variables)
+        # netCDF reports any failure to create a file as EACCES, "Permission denied" (no
+        # free inode included): create it here, where the OSError carries the system's own
+        # errno and the file's name; netCDF then overwrites the empty file.
+        with open(self.path, "wb"):
+            pass
         self._nc = netCDF4.Dataset(self.path, "w", format="NETCDF4")
         # No pre-fill pass: every element is written. _FillValue attributes still apply.
         self._nc.set_fill_off()

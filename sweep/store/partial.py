@@ -105,10 +105,14 @@ def _write_atomic(path, data_or_writer):
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         # A full disk leaves a half-written temporary file: give its space back at once.
         with contextlib.suppress(OSError):
             tmp.unlink()
+        if isinstance(exc, OSError) and exc.filename is None:
+            # write() and fsync() name no file (a full disk said a bare "No space left on
+            # device"): name the one that could not be written.
+            raise OSError(exc.errno, exc.strerror, str(path)) from exc
         raise
 
 

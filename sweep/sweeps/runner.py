@@ -936,6 +936,18 @@ def _disk_is_full(exc, directory):
             and free < _limits.DISK_FULL_MARGIN)
 
 
+def _full_disk_text(exc, directory):
+    """What ran out where ``directory`` is, in the words of the error: bytes, inodes (a
+    file system can have bytes free and no file left to create) or a quota."""
+    free = _preflight_mod.format_bytes(_preflight_mod.free_disk(directory) or 0)
+    if isinstance(exc, OSError) and exc.errno != errno.ENOSPC:  # EDQUOT: over a quota
+        return f"cannot write {exc.filename or directory}: {exc.strerror} ({free} free)"
+    if _preflight_mod.free_inodes(directory) == 0:
+        return (f"no free inodes left on the device of {directory}: no file can be "
+                f"created ({free} free)")
+    return f"no space left on the device of {directory} ({free} free)"
+
+
 def _write_failure(job, partial, exc):
     """The one-line error for a failure while chunks are saved or written, or None to
     let ``exc`` through. Finished chunks are kept either way."""
@@ -943,10 +955,7 @@ def _write_failure(job, partial, exc):
     keep = (f"the {count(saved, 'finished chunk')} {'is' if saved == 1 else 'are'} kept in "
             f"{partial.dir}: rerun the same command to resume")
     if _disk_is_full(exc, partial.dir):
-        free = _preflight_mod.free_disk(partial.dir)
-        return RunError(f"no space left on the device of {partial.dir} "
-                        f"({_preflight_mod.format_bytes(free or 0)} free); {keep} once "
-                        "space is freed")
+        return RunError(f"{_full_disk_text(exc, partial.dir)}; {keep} once space is freed")
     if isinstance(exc, OSError):
         return RunError(f"cannot write {exc.filename or partial.dir}: "
                         f"{exc.strerror or exc}; {keep}")
