@@ -21,11 +21,11 @@
 
 Exit status: 0 success; 1 an error: invalid configuration, refused resume or preflight,
 output locked by another run, unreadable dataset, a file system or scheduler fault; 2 bad
-arguments; 130 interrupted (the finished chunks are kept; rerun the same command to
-resume); 141 the reader of the output left (``sweep info X | head``: nothing is said, as for
-a command killed by SIGPIPE). Every error is one line on stderr naming the file, value or
-address and the cause; ``--debug`` (before or after the subcommand) shows the traceback
-instead.
+arguments; 130 interrupted (the finished chunks are kept; rerun the same command, less
+``--restart``, to resume); 141 the reader of the output left (``sweep info X | head``:
+nothing is said, as for a command killed by SIGPIPE). Every error is one line on stderr
+naming the file, value or address and the cause; ``--debug`` (before or after the
+subcommand) shows the traceback instead.
 ``python -m sweep`` is the same command (:mod:`sweep.__main__`).
 
 This module owns every subcommand and all of argparse: each subparser sets ``func``, the

@@ -493,6 +493,33 @@ def test_a_quota_at_the_assembled_file_is_called_a_quota(tmp_path, monkeypatch, 
                    os.strerror(errno.EDQUOT), "kept")
 
 
+@pytest.mark.parametrize("fault", ["interrupt", "full disk"])
+def test_the_advice_after_a_failed_restart_resumes(tmp_path, monkeypatch, capsys, fault):
+    # The same command again, --restart included, would discard the finished chunks.
+    from sweep.store import partial
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    saved = store.PartialStore.save_chunk
+
+    def save_then_fail(self, index, *args):
+        saved(self, index, *args)
+        if index == 2:
+            _failing_open(monkeypatch, partial, "chunk_", errno.ENOSPC)
+
+    if fault == "interrupt":
+        interrupt_after(monkeypatch, 3)
+    else:
+        monkeypatch.setattr(store.PartialStore, "save_chunk", save_then_fail)
+    status = cli.main(["run", str(cfg), "-o", str(out), "--restart"])
+    assert status == (130 if fault == "interrupt" else 1)
+    err = capsys.readouterr().err
+    assert "rerun without --restart to resume" in err and "same command" not in err, err
+    monkeypatch.undo()
+    res = run(GRID, out)                           # what the advice says: it resumes
+    assert res.resumed_chunks == 3
+
+
 def _closed_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

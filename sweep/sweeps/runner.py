@@ -526,6 +526,14 @@ class _Job:
     chunks: Any = ()
     pre: Any = None
     progress_interval: float | None = None
+    restart: bool = False
+
+    @property
+    def resume_advice(self) -> str:
+        """How to resume from the finished chunks: the same command, but not with
+        --restart, which would discard them."""
+        return ("rerun without --restart to resume" if self.restart
+                else "rerun the same command to resume")
 
     @property
     def label(self) -> str:
@@ -953,7 +961,7 @@ def _write_failure(job, partial, exc):
     let ``exc`` through. Finished chunks are kept either way."""
     saved = len(partial.finished())
     keep = (f"the {count(saved, 'finished chunk')} {'is' if saved == 1 else 'are'} kept in "
-            f"{partial.dir}: rerun the same command to resume")
+            f"{partial.dir}: {job.resume_advice}")
     if _disk_is_full(exc, partial.dir):
         return RunError(f"{_full_disk_text(exc, partial.dir)}; {keep} once space is freed")
     if isinstance(exc, OSError):
@@ -980,7 +988,7 @@ def _write_output(job, partial, done, quiet, client, scheduler):
     except KeyboardInterrupt:
         n_saved = len(partial.finished())
         job.log(f"\ninterrupted: {n_saved:,} of {count(len(job.chunks), 'chunk')} saved in "
-                f"{partial.dir}; rerun the same command to resume")
+                f"{partial.dir}; {job.resume_advice}")
         raise
     except Exception as exc:
         failure = _write_failure(job, partial, exc)
@@ -1072,7 +1080,7 @@ def run(cfg: _config.Config | str | Path, output: str | Path | None = None, *,
     """
     t_start = time.perf_counter()
     job = _prepare(cfg, output, chunk_size, quiet, log)
-    job.progress_interval = progress_interval
+    job.progress_interval, job.restart = progress_interval, restart
     _preflight(job, force, limits)
     lock = _take_lock(job)
     try:
