@@ -637,6 +637,29 @@ def test_input_faults_end_in_one_line(tmp_path, capsys, case):
     assert not (tmp_path / "out.nc.lock").exists()
 
 
+@pytest.mark.parametrize("stderr", ["closed pipe", "/dev/full"])
+def test_a_failing_stderr_drops_the_messages_not_the_run(tmp_path, reference, stderr):
+    # `sweep run c.toml 2>&1 | head -c 10` and `2>/dev/full`: the run was lost, blamed on
+    # "cannot write X.partial: Broken pipe", and a traceback followed.
+    if stderr == "/dev/full" and not Path("/dev/full").exists():
+        pytest.skip("no /dev/full here")
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    env = dict(os.environ,
+               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    cmd = [sys.executable, "-m", "sweep", "run", str(cfg), "-o", str(out),
+           "--progress-interval", "1e-9"]               # a progress line at every chunk
+    with open(os.devnull if stderr == "closed pipe" else stderr, "w") as sink:
+        proc = subprocess.Popen(cmd, env=env, cwd=tmp_path, stdout=sink,
+                                stderr=subprocess.PIPE if stderr == "closed pipe" else sink)
+        if proc.stderr is not None:
+            proc.stderr.close()                         # the reader leaves at once
+        assert proc.wait(timeout=300) == 0
+    xr.testing.assert_equal(opened(out), reference["grid"])
+    assert not store.partial_dir(out).exists()
+
+
 def test_debug_shows_the_traceback(tmp_path, capsys):
     cfg = tmp_path / "c.toml"
     cfg.write_bytes(b"\xff")

@@ -527,6 +527,7 @@ class _Job:
     pre: Any = None
     progress_interval: float | None = None
     restart: bool = False
+    stream: Any = None  # of the progress (a DroppingStream on stderr)
 
     @property
     def resume_advice(self) -> str:
@@ -598,8 +599,10 @@ def _prepare(cfg, output, chunk_size, quiet, log, in_memory=False):
     in-memory run), build the design."""
     if not isinstance(cfg, _config.Config):
         cfg = _config.load(cfg)
+    # Messages and progress share one stream that a failure silences (not the run).
+    stream = _progress_mod.DroppingStream(sys.stderr)
     if log is None:
-        log = (lambda msg: None) if quiet else (lambda msg: print(msg, file=sys.stderr))
+        log = (lambda msg: None) if quiet else (lambda msg: print(msg, file=stream))
     if in_memory:
         output = None
     else:
@@ -612,7 +615,7 @@ def _prepare(cfg, output, chunk_size, quiet, log, in_memory=False):
     design = _design.build(cfg.design, cfg.source)
     job = _Job(cfg=cfg, design=design, plan=ComputePlan.from_config(cfg),
                layout=design.layout(), output=output, chunk_size=int(chunk_size), log=log,
-               result=RunResult(output=output, n_points=design.size))
+               result=RunResult(output=output, n_points=design.size), stream=stream)
     job.pre = _preflight_mod.preflight(job.layout, job.plan.variables, job.chunk_size,
                                        job.output)
     return job
@@ -846,7 +849,7 @@ def _stream_chunks(job, partial, done, behind, quiet, client):
     totals, result = _Totals(), job.result
     last = time.perf_counter()
     with _progress_mod.progress(job.design.size, done_points, quiet=quiet, desc=job.label,
-                                interval=job.progress_interval) as bar:
+                                interval=job.progress_interval, stream=job.stream) as bar:
         tasks = _tasks(job, partial, done, behind, totals, bar)
         executor = (_local_executor(job.plan, tasks) if client is None
                     else _dask_executor(job.plan, tasks, client))
