@@ -257,6 +257,24 @@ def test_a_plain_file_in_place_of_the_partial_directory_is_named_and_kept(tmp_pa
     assert store.partial_dir(out).read_text() == "someone's notes" and not out.exists()
 
 
+def test_a_damaged_output_is_not_up_to_date(tmp_path, capsys, reference):
+    out = tmp_path / "out.nc"
+    run(GRID, out)
+    raw = bytearray(out.read_bytes())
+    gamma = np.linspace(0.0, 0.2, 9).tobytes()
+    at = raw.find(gamma) + len(gamma) // 2          # the middle of the stored gamma axis
+    assert at > len(gamma) // 2 and raw.find(gamma, at) == -1
+    raw[at:at + 8] = b"\xab" * 8
+    out.write_bytes(bytes(raw))
+    with pytest.raises(store.ResumeError, match="cannot be read.*damaged.*--restart"):
+        run(GRID, out)                              # it said "up to date", exit 0
+    assert out.read_bytes() == raw
+    assert cli.main(["info", str(out)]) == 1
+    one_line_error(capsys.readouterr().err, f"sweep info: error: cannot read {out}: ")
+    run(GRID, out, restart=True)                    # what the message advises
+    xr.testing.assert_identical(opened(out), reference["grid"])
+
+
 def _rewrite_chunk(path, change):
     """Rewrite a chunk file as a valid npz whose content ``change`` altered."""
     with np.load(path) as z:

@@ -718,6 +718,7 @@ def _existing_output_is_current(job, restart):
     if (attrs and attrs.get("sweep_config_sha256") == job.cfg.sha256
             and attrs.get("sweep_version") == __version__
             and attrs.get("sweep_source_sha256") == source_sha256()):
+        _check_intact(output)
         job.log(f"{output} is up to date (same configuration and version); nothing to do. "
                 "Use --restart to recompute it.")
         return True
@@ -725,6 +726,19 @@ def _existing_output_is_current(job, restart):
             else "is not a sweep output")
     raise store.ResumeError(f"{output} exists and {what}; use --restart to overwrite "
                             "it, or choose another output with -o")
+
+
+def _check_intact(output):
+    """Refuse to call a damaged output up to date: its attributes match, but its values
+    must read back too (bytes overwritten in the middle of the file left the attributes
+    readable; see :func:`sweep.store.check_readable` for why reading is the check)."""
+    try:
+        store.check_readable(output)
+    except OSError as exc:
+        raise store.ResumeError(
+            f"{output} has this configuration's attributes but cannot be read "
+            f"({exc.strerror or exc}): it is damaged; use --restart to recompute it, or "
+            "choose another output with -o") from exc
 
 
 def _plan_chunks(job):
