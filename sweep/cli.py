@@ -647,7 +647,11 @@ def main(argv: list[str] | None = None) -> int:
     int
         The exit status.
     """
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    except KeyboardInterrupt:  # during start-up: the parser imports the reports (numba)
+        _say("sweep: interrupted")
+        return 130
     previous = None
     if args.command == "run":
         try:

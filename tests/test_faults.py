@@ -713,6 +713,24 @@ def test_a_signal_during_the_cleanup_is_not_an_interruption(tmp_path, monkeypatc
     assert not store.partial_dir(out).exists()
 
 
+def test_an_interrupt_during_start_up_is_one_line(monkeypatch, capsys):
+    # The start-up's slow part is loading numba: none of it may happen before main() can
+    # handle a Ctrl-C (the `sweep` script imports sweep.cli first, and that printed a
+    # traceback out of `import sweep`)...
+    loaded = subprocess.run([sys.executable, "-c", "import sys, sweep.cli; "
+                             "print(sorted({'numba', 'sweep.api'} & set(sys.modules)))"],
+                            env=dict(os.environ, PYTHONPATH=str(ROOT)), capture_output=True,
+                            text=True, timeout=120)
+    assert loaded.stdout.strip() == "[]", loaded
+    # ... and main() handles it while it builds the parser, which imports the reports.
+    def interrupted(sub):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_add_run_command", interrupted)
+    assert cli.main(["run", "c.toml"]) == 130
+    assert capsys.readouterr().err == "sweep: interrupted\n"
+
+
 def test_signals_wait_for_the_end_of_the_publication():
     def handler(signum, frame):
         raise KeyboardInterrupt
