@@ -2,9 +2,12 @@
 nothing finished is lost (issue 11).
 
 Faults: a second writer (``--restart`` included, in real processes), a partial directory
-without its manifest, damaged chunk files, a full disk and a read-only target (on a small
-tmpfs, skipped where the test cannot mount one), a huge design, a bad scheduler address,
-bad inputs on the command line, and a signal during the final clean-up.
+without its manifest or that is a plain file, damaged chunk files, a damaged finished
+output, a full disk, no free inode and a read-only target (on a small tmpfs, skipped where
+the test cannot mount one), a full disk or a quota at one file (a patched ``open``), a
+stderr that fails midway, a huge design, a bad scheduler address, bad inputs on the command
+line (a chunk size beyond the range included), and signals at start-up and during the final
+clean-up.
 """
 import errno
 import io
