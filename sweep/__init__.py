@@ -11,19 +11,31 @@ The package's floors, from the ground (no module imports from a floor above its 
 -> :mod:`sweep.critical`, :mod:`sweep.tables` -> :mod:`sweep.sweeps` (configurations,
 designs, runner) -> :mod:`sweep.reports`, :mod:`sweep.examples` -> :mod:`sweep.cli`.
 
+Every public name is imported on first use (PEP 562): ``import sweep`` loads nothing but
+the version, and ``sweep.cor`` loads the api and numba when first touched. The ``sweep``
+command imports this package before it can handle anything: loading numba there, the
+longest part of its start-up, a Ctrl-C was a traceback out of an import; loaded inside
+:func:`sweep.cli.main`, it is the one line "sweep: interrupted".
 ``sweep.run`` (a sweep as an ``xarray.Dataset``, :func:`sweep.sweeps.dataset.run`) lives on
-the sweeps floor and is imported on first use: ``import sweep`` loads neither the runner nor
-xarray, netCDF4 or Dask.
+the sweeps floor.
 """
+from __future__ import annotations
+
+import importlib
+
 from sweep._version import __version__
-from sweep.api import (APPROXIMATIONS, DEFAULT_MAX_STEPS, DEFAULT_REST_TOL, DEFAULT_STEPS,
-                       METHODS, SP_C2, IntegrationResult, coefficients, coefficients_at_zero,
-                       cor, cor_fields, cor_with_status, first_order_coefficients, integrate,
-                       large_gtilde_coefficient)
-from sweep.critical import critical_gamma, critical_gtilde
-from sweep.model import scale
-from sweep.registry import MODELS, Status
-from sweep.tables import lookup
+
+#: Each public name and the module that owns it.
+_OWNERS = {
+    **dict.fromkeys(("APPROXIMATIONS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL",
+                     "DEFAULT_STEPS", "METHODS", "SP_C2", "IntegrationResult", "coefficients",
+                     "coefficients_at_zero", "cor", "cor_fields", "cor_with_status",
+                     "first_order_coefficients", "integrate", "large_gtilde_coefficient"),
+                    "sweep.api"),
+    "critical_gamma": "sweep.critical", "critical_gtilde": "sweep.critical",
+    "scale": "sweep.model", "MODELS": "sweep.registry", "Status": "sweep.registry",
+    "lookup": "sweep.tables", "run": "sweep.sweeps.dataset",
+}
 
 __all__ = ["__version__", "MODELS", "Status", "scale", "integrate", "cor", "cor_with_status",
            "cor_fields", "lookup", "run",
@@ -34,15 +46,20 @@ __all__ = ["__version__", "MODELS", "Status", "scale", "integrate", "cor", "cor_
 
 
 def __getattr__(name: str):
-    # PEP 562: the runner (and through it the store, netCDF4 and xarray) loads only when
-    # sweep.run is first used.
-    if name == "run":
-        from sweep.sweeps.dataset import run
-
-        globals()["run"] = run
-        return run
+    # PEP 562: a public name, or a submodule (sweep.api after a bare `import sweep`, as
+    # when this package imported the api itself), loads on first use.
+    if name in _OWNERS:
+        value = getattr(importlib.import_module(_OWNERS[name]), name)
+        globals()[name] = value
+        return value
+    if not name.startswith("__"):
+        try:
+            return importlib.import_module(f"{__name__}.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{name}":
+                raise
     raise AttributeError(f"module 'sweep' has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | {"run"})
+    return sorted(set(globals()) | set(_OWNERS))

@@ -21,11 +21,13 @@
 
 Exit status: 0 success; 1 an error: invalid configuration, refused resume or preflight,
 output locked by another run, unreadable dataset, a file system or scheduler fault; 2 bad
-arguments; 130 interrupted (the finished chunks are kept; rerun the same command to
-resume); 141 the reader of the output left (``sweep info X | head``: nothing is said, as for
-a command killed by SIGPIPE). Every error is one line on stderr naming the file, value or
-address and the cause; ``--debug`` (before or after the subcommand) shows the traceback
-instead.
+arguments; 130 interrupted (the finished chunks are kept; rerun the same command, less
+``--restart``, to resume); 141 the reader of the output left (``sweep info X | head``:
+nothing is said, as for a command killed by SIGPIPE). ``sweep run`` whose stderr fails
+midway (``2>&1 | head``, ``2>/dev/full``) drops its messages and progress from there on
+and finishes: 0 with the file complete, as if it had been ``--quiet``. Every error is one
+line on stderr naming the file, value or address and the cause; ``--debug`` (before or
+after the subcommand) shows the traceback instead.
 ``python -m sweep`` is the same command (:mod:`sweep.__main__`).
 
 This module owns every subcommand and all of argparse: each subparser sets ``func``, the
@@ -36,6 +38,7 @@ module of the package; the work modules are imported inside the handlers so that
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import signal
@@ -54,15 +57,17 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def _int_at_least(low):
-    """An argparse ``type=``: an integer >= ``low``."""
+def _int_at_least(low, high=None):
+    """An argparse ``type=``: an integer >= ``low`` (and <= ``high``, if given)."""
+    rule = f">= {low}" if high is None else f"from {low} to {high:,}"
+
     def convert(text):
         try:
             value = int(text)
         except ValueError:
             value = low - 1
-        if value < low:
-            raise argparse.ArgumentTypeError(f"must be an integer >= {low}, got {text!r}")
+        if not low <= value <= (value if high is None else high):
+            raise argparse.ArgumentTypeError(f"must be an integer {rule}, got {text!r}")
         return value
     return convert
 
@@ -116,7 +121,7 @@ def _add_debug(p):
 def _add_limit_options(p):
     from sweep.sweeps import limits
 
-    p.add_argument("--chunk-size", type=_positive_int, metavar="N",
+    p.add_argument("--chunk-size", type=_int_at_least(1, limits.MAX_CHUNK_SIZE), metavar="N",
                    help="points per chunk (default: the configuration's run.chunk_size)")
     p.add_argument("--max-points", type=_positive_int, metavar="N",
                    default=limits.MAX_POINTS,
@@ -603,6 +608,13 @@ def _stdout_closed() -> int:
     return 128 + getattr(signal, "SIGPIPE", 13)
 
 
+def _say(line: str) -> None:
+    """Print ``line`` on stderr if it can still be written: a stderr that failed (its
+    reader left, a full disk) changes no exit status and adds no traceback."""
+    with contextlib.suppress(OSError, ValueError):
+        print(line, file=sys.stderr, flush=True)
+
+
 def _one_line(exc: BaseException) -> str:
     """The message of an error on one line, naming the file of an OSError."""
     if isinstance(exc, OSError) and exc.filename is not None:
@@ -640,7 +652,11 @@ def main(argv: list[str] | None = None) -> int:
     int
         The exit status.
     """
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    except KeyboardInterrupt:  # during start-up: the parser imports the reports (numba)
+        _say("sweep: interrupted")
+        return 130
     previous = None
     if args.command == "run":
         try:
@@ -654,14 +670,14 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # before Exception: it is an OSError, not the input's fault
         return _stdout_closed()
     except KeyboardInterrupt:
-        print("sweep: interrupted", file=sys.stderr)
+        _say("sweep: interrupted")
         return 130
     except Exception as exc:
         if getattr(args, "debug", False):
             raise
         kind = "" if isinstance(exc, _expected_errors()) else f"unexpected {type(exc).__name__}: "
-        print(f"{_command_name(args)}: error: {kind}{_one_line(exc)}"
-              + (" (rerun with --debug for the traceback)" if kind else ""), file=sys.stderr)
+        _say(f"{_command_name(args)}: error: {kind}{_one_line(exc)}"
+             + (" (rerun with --debug for the traceback)" if kind else ""))
         return 1
     finally:
         if previous is not None:

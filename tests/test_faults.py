@@ -2,10 +2,15 @@
 nothing finished is lost (issue 11).
 
 Faults: a second writer (``--restart`` included, in real processes), a partial directory
-without its manifest, damaged chunk files, a full disk and a read-only target (on a small
-tmpfs, skipped where the test cannot mount one), a huge design, a bad scheduler address,
-bad inputs on the command line, and a signal during the final clean-up.
+without its manifest or that is a plain file, damaged chunk files, a damaged finished
+output, a full disk, no free inode and a read-only target (on a small tmpfs, skipped where
+the test cannot mount one), a full disk or a quota at one file (a patched ``open``), a
+stderr that fails midway, a huge design, a bad scheduler address, bad inputs on the command
+line (a chunk size beyond the range included), and signals at start-up and during the final
+clean-up.
 """
+import errno
+import io
 import json
 import os
 import signal
@@ -241,6 +246,38 @@ def test_leftovers_of_an_interrupted_cleanup_never_replace_a_good_output(tmp_pat
     assert out.read_bytes() == before
 
 
+@pytest.mark.parametrize("restart", [False, True])
+def test_a_plain_file_in_place_of_the_partial_directory_is_named_and_kept(tmp_path, capsys,
+                                                                         restart):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    store.partial_dir(out).write_text("someone's notes")
+    argv = ["run", str(cfg), "-o", str(out), "--quiet"] + ["--restart"] * restart
+    assert cli.main(argv) == 1
+    one_line_error(capsys.readouterr().err, store.partial_dir(out),
+                   "not a run's partial directory", "-o")
+    assert store.partial_dir(out).read_text() == "someone's notes" and not out.exists()
+
+
+def test_a_damaged_output_is_not_up_to_date(tmp_path, capsys, reference):
+    out = tmp_path / "out.nc"
+    run(GRID, out)
+    raw = bytearray(out.read_bytes())
+    gamma = np.linspace(0.0, 0.2, 9).tobytes()
+    at = raw.find(gamma) + len(gamma) // 2          # the middle of the stored gamma axis
+    assert at > len(gamma) // 2 and raw.find(gamma, at) == -1
+    raw[at:at + 8] = b"\xab" * 8
+    out.write_bytes(bytes(raw))
+    with pytest.raises(store.ResumeError, match="cannot be read.*damaged.*--restart"):
+        run(GRID, out)                              # it said "up to date", exit 0
+    assert out.read_bytes() == raw
+    assert cli.main(["info", str(out)]) == 1
+    one_line_error(capsys.readouterr().err, f"sweep info: error: cannot read {out}: ")
+    run(GRID, out, restart=True)                    # what the message advises
+    xr.testing.assert_identical(opened(out), reference["grid"])
+
+
 def _rewrite_chunk(path, change):
     """Rewrite a chunk file as a valid npz whose content ``change`` altered."""
     with np.load(path) as z:
@@ -420,6 +457,90 @@ def test_a_read_only_target_is_a_clear_error_and_the_output_survives(tmpfs, caps
     assert out.read_bytes() == before and sorted(os.listdir(fs)) == ["out.nc"]
 
 
+def test_no_free_inode_is_said_so_not_permission_denied(tmpfs, capsys):
+    # Four inodes: the root, the lock, the partial directory and its manifest; the
+    # assembled file finds none (netCDF called that "Permission denied").
+    fs = tmpfs("inodes", "4m", "nr_inodes=4")
+    cfg = fs.parent / "c.toml"
+    cfg.write_text(GRID)
+    assert cli.main(["run", str(cfg), "-o", str(fs / "out.nc"), "--quiet"]) == 1
+    line = one_line_error(capsys.readouterr().err, "no free inodes left on the device of",
+                          store.partial_dir(fs / "out.nc"))
+    assert "Permission denied" not in line
+
+
+def _failing_open(monkeypatch, module, name, code):
+    """``open`` in ``module`` as a full disk has it: a file whose name starts with ``name``
+    is created, and its first write raises errno ``code`` as write(2) does (no file
+    name)."""
+    real = open
+
+    class Refused(io.FileIO):
+        def write(self, data):
+            raise OSError(code, os.strerror(code))
+
+    def fake(path, mode="r", *args, **kwargs):
+        if Path(path).name.startswith(name):
+            return Refused(path, mode.replace("b", ""))
+        return real(path, mode, *args, **kwargs)
+
+    monkeypatch.setattr(module, "open", fake, raising=False)
+
+
+def test_a_full_disk_at_the_manifest_names_it(tmp_path, monkeypatch, capsys):
+    from sweep.store import partial
+    _failing_open(monkeypatch, partial, "manifest.json", errno.ENOSPC)
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 1
+    one_line_error(capsys.readouterr().err, store.partial_dir(out) / "manifest.json",
+                   "No space left on device")
+    assert list(store.partial_dir(out).iterdir()) == []  # no temporary file left
+
+
+def test_a_quota_at_the_assembled_file_is_called_a_quota(tmp_path, monkeypatch, capsys):
+    from sweep.store import netcdf
+
+    def over_quota(path, mode="r", *args, **kwargs):  # an inode quota refuses the create
+        raise OSError(errno.EDQUOT, os.strerror(errno.EDQUOT), str(path))
+
+    monkeypatch.setattr(netcdf, "open", over_quota, raising=False)
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 1
+    one_line_error(capsys.readouterr().err, store.partial_dir(out) / "assembling.nc",
+                   os.strerror(errno.EDQUOT), "kept")
+
+
+@pytest.mark.parametrize("fault", ["interrupt", "full disk"])
+def test_the_advice_after_a_failed_restart_resumes(tmp_path, monkeypatch, capsys, fault):
+    # The same command again, --restart included, would discard the finished chunks.
+    from sweep.store import partial
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    saved = store.PartialStore.save_chunk
+
+    def save_then_fail(self, index, *args):
+        saved(self, index, *args)
+        if index == 2:
+            _failing_open(monkeypatch, partial, "chunk_", errno.ENOSPC)
+
+    if fault == "interrupt":
+        interrupt_after(monkeypatch, 3)
+    else:
+        monkeypatch.setattr(store.PartialStore, "save_chunk", save_then_fail)
+    status = cli.main(["run", str(cfg), "-o", str(out), "--restart"])
+    assert status == (130 if fault == "interrupt" else 1)
+    err = capsys.readouterr().err
+    assert "rerun without --restart to resume" in err and "same command" not in err, err
+    monkeypatch.undo()
+    res = run(GRID, out)                           # what the advice says: it resumes
+    assert res.resumed_chunks == 3
+
+
 def _closed_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -472,7 +593,8 @@ def _non_sweep_netcdf(path):
 
 @pytest.mark.parametrize("case", [
     "not-utf8", "deep", "dev-zero", "oversized", "axis", "zarr", "long-name", "directory",
-    "chunk-negative", "chunk-zero", "info-not-sweep", "scheduler"])
+    "chunk-negative", "chunk-zero", "chunk-huge", "chunk-huge-toml", "info-not-sweep",
+    "scheduler"])
 def test_input_faults_end_in_one_line(tmp_path, capsys, case):
     cfg = tmp_path / "c.toml"
     cfg.write_text(GRID)
@@ -488,6 +610,9 @@ def test_input_faults_end_in_one_line(tmp_path, capsys, case):
         "directory": ("out.nc is a directory",),
         "chunk-negative": ("--chunk-size", "-5"),
         "chunk-zero": ("--chunk-size", "'0'"),
+        "chunk-huge": ("--chunk-size", f"from 1 to {limits.MAX_CHUNK_SIZE:,}", "1" + "0" * 23),
+        "chunk-huge-toml": ("run.chunk_size", f"from 1 to {limits.MAX_CHUNK_SIZE:,}",
+                            "1" + "0" * 23, cfg),
         "info-not-sweep": ("not a sweep output", "x.nc"),
         "scheduler": ("cannot reach the Dask scheduler", "'nonsense'"),
     }[case]
@@ -512,13 +637,17 @@ def test_input_faults_end_in_one_line(tmp_path, capsys, case):
         argv += ["--chunk-size", "-5"]
     elif case == "chunk-zero":
         argv += ["--chunk-size", "0"]
+    elif case == "chunk-huge":           # beyond the file's 64-bit attribute
+        argv += ["--chunk-size", "1" + "0" * 23]
+    elif case == "chunk-huge-toml":
+        cfg.write_text(GRID.replace("chunk_size = 10", "chunk_size = 1" + "0" * 23))
     elif case == "info-not-sweep":
         _non_sweep_netcdf(tmp_path / "x.nc")
         argv = ["info", str(tmp_path / "x.nc")]
     elif case == "scheduler":
         pytest.importorskip("distributed")
         argv += ["--scheduler", "nonsense"]
-    if case.startswith("chunk-"):
+    if case in ("chunk-negative", "chunk-zero", "chunk-huge"):
         with pytest.raises(SystemExit) as info:
             cli.main(argv)
         assert info.value.code == 2
@@ -527,6 +656,29 @@ def test_input_faults_end_in_one_line(tmp_path, capsys, case):
     one_line_error(capsys.readouterr().err, *expect)
     assert not (tmp_path / "out.nc.partial").exists()
     assert not (tmp_path / "out.nc.lock").exists()
+
+
+@pytest.mark.parametrize("stderr", ["closed pipe", "/dev/full"])
+def test_a_failing_stderr_drops_the_messages_not_the_run(tmp_path, reference, stderr):
+    # `sweep run c.toml 2>&1 | head -c 10` and `2>/dev/full`: the run was lost, blamed on
+    # "cannot write X.partial: Broken pipe", and a traceback followed.
+    if stderr == "/dev/full" and not Path("/dev/full").exists():
+        pytest.skip("no /dev/full here")
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    env = dict(os.environ,
+               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    cmd = [sys.executable, "-m", "sweep", "run", str(cfg), "-o", str(out),
+           "--progress-interval", "1e-9"]               # a progress line at every chunk
+    with open(os.devnull if stderr == "closed pipe" else stderr, "w") as sink:
+        proc = subprocess.Popen(cmd, env=env, cwd=tmp_path, stdout=sink,
+                                stderr=subprocess.PIPE if stderr == "closed pipe" else sink)
+        if proc.stderr is not None:
+            proc.stderr.close()                         # the reader leaves at once
+        assert proc.wait(timeout=300) == 0
+    xr.testing.assert_equal(opened(out), reference["grid"])
+    assert not store.partial_dir(out).exists()
 
 
 def test_debug_shows_the_traceback(tmp_path, capsys):
@@ -562,6 +714,24 @@ def test_a_signal_during_the_cleanup_is_not_an_interruption(tmp_path, monkeypatc
     res = run(GRID, out)                                 # leftovers go, the output stays
     assert res.up_to_date and res.discarded_chunks == 7
     assert not store.partial_dir(out).exists()
+
+
+def test_an_interrupt_during_start_up_is_one_line(monkeypatch, capsys):
+    # The start-up's slow part is loading numba: none of it may happen before main() can
+    # handle a Ctrl-C (the `sweep` script imports sweep.cli first, and that printed a
+    # traceback out of `import sweep`)...
+    loaded = subprocess.run([sys.executable, "-c", "import sys, sweep.cli; "
+                             "print(sorted({'numba', 'sweep.api'} & set(sys.modules)))"],
+                            env=dict(os.environ, PYTHONPATH=str(ROOT)), capture_output=True,
+                            text=True, timeout=120)
+    assert loaded.stdout.strip() == "[]", loaded
+    # ... and main() handles it while it builds the parser, which imports the reports.
+    def interrupted(sub):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_add_run_command", interrupted)
+    assert cli.main(["run", "c.toml"]) == 130
+    assert capsys.readouterr().err == "sweep: interrupted\n"
 
 
 def test_signals_wait_for_the_end_of_the_publication():

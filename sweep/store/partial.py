@@ -105,10 +105,14 @@ def _write_atomic(path, data_or_writer):
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         # A full disk leaves a half-written temporary file: give its space back at once.
         with contextlib.suppress(OSError):
             tmp.unlink()
+        if isinstance(exc, OSError) and exc.filename is None:
+            # write() and fsync() name no file (a full disk said a bare "No space left on
+            # device"): name the one that could not be written.
+            raise OSError(exc.errno, exc.strerror, str(path)) from exc
         raise
 
 
@@ -373,7 +377,8 @@ class PartialStore:
             Another process is writing this output.
         ResumeError
             If the existing state was made by a different configuration, version or
-            chunking (unless ``restart``).
+            chunking (unless ``restart``), or its path is taken by something that is not
+            a directory (``restart`` or not).
         """
         if self._lock is None:
             self._lock = OutputLock(self.output).acquire()
@@ -385,6 +390,12 @@ class PartialStore:
             raise
 
     def _open(self, restart):
+        if self.dir.exists() and not self.dir.is_dir():
+            # Not ours: neither resumed (mkdir said a bare "File exists") nor deleted by
+            # --restart (rmtree said "Not a directory").
+            raise ResumeError(f"{self.dir} exists and is not a directory, so not a run's "
+                              "partial directory; move or delete it, or choose another "
+                              "output with -o")
         if restart and self.dir.exists():
             shutil.rmtree(self.dir)
         self.discarded = remove_untrusted(self.output) or 0

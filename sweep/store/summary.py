@@ -2,7 +2,8 @@
 
 Owns :func:`summarize` (dimensions, coordinates, variables with summary statistics and
 settings, read in bounded pieces so a file of any size can be described) and
-:func:`read_global_attrs` (how the runner recognises an existing output).
+:func:`read_global_attrs` and :func:`check_readable` (how the runner recognises an
+existing output, and proves it intact).
 
 May import: numpy, netCDF4, the store's own :mod:`~sweep.store.layout` and
 :mod:`~sweep.store.metadata`, and :mod:`sweep._format` (floor 0). Nothing of numba, the
@@ -10,6 +11,8 @@ kernels or any floor above the store.
 """
 from __future__ import annotations
 
+import contextlib
+import errno
 import math
 import os
 from collections.abc import Iterator
@@ -22,7 +25,7 @@ from sweep._format import count
 from sweep.store.layout import flat_blocks
 from sweep.store.metadata import variable_spec
 
-__all__ = ["summarize", "read_global_attrs"]
+__all__ = ["summarize", "read_global_attrs", "check_readable"]
 
 #: Global attributes listed under "settings" by :func:`summarize` (prefixes).
 _SETTINGS = ("integrator_", "options_", "design", "chunk_size", "n_points", "sweep_version",
@@ -30,6 +33,20 @@ _SETTINGS = ("integrator_", "options_", "design", "chunk_size", "n_points", "swe
              "points_per_second", "date_created", "sweep_config_sha256", "sweep_command",
              "compile_time", "kernel_time", "numba_num_threads", "numba_threading_layer",
              "executor")
+
+
+@contextlib.contextmanager
+def _reading(path: str | os.PathLike) -> Iterator[None]:
+    """netCDF's error for a damaged file as an OSError naming it.
+
+    netCDF4 raises what HDF5 finds wrong (a checksum that fails, a header overwritten) as
+    a RuntimeError, "NetCDF: HDF error", which names no file; as an OSError it is what
+    callers already report as "cannot read FILE: ..." (errno EIO: the data are bad).
+    """
+    try:
+        yield
+    except RuntimeError as exc:
+        raise OSError(errno.EIO, str(exc), os.fspath(path)) from exc
 
 
 def read_global_attrs(path: str | os.PathLike) -> dict[str, Any] | None:
@@ -44,10 +61,35 @@ def read_global_attrs(path: str | os.PathLike) -> dict[str, Any] | None:
     dict or None
     """
     try:
-        with netCDF4.Dataset(path, "r") as nc:
+        with _reading(path), netCDF4.Dataset(path, "r") as nc:
             return {k: nc.getncattr(k) for k in nc.ncattrs()}
     except OSError:
         return None
+
+
+def check_readable(path: str | os.PathLike) -> None:
+    """Read every value of a netCDF file, in bounded pieces, to prove it is intact.
+
+    Reading is the check: HDF5 verifies each storage chunk as it decodes it (zlib's
+    Adler-32 of the compressed ones, a Fletcher-32 checksum where the file has one), so
+    bytes overwritten in a finished file fail here. Its size cannot tell (an overwrite
+    keeps it), and a checksum of the values recorded at the finish would need this same
+    full read to be verified. The cost is one decompression pass over the file.
+
+    Parameters
+    ----------
+    path : path-like
+
+    Raises
+    ------
+    OSError
+        The file cannot be opened or a value cannot be read; ``filename`` is ``path``.
+    """
+    with _reading(path), netCDF4.Dataset(path, "r") as nc:
+        nc.set_auto_maskandscale(False)
+        for var in nc.variables.values():
+            for _ in _iter_flat(var, var.shape):
+                pass
 
 
 def _iter_flat(var, shape, block=2 ** 22) -> Iterator[np.ndarray]:
@@ -76,12 +118,12 @@ def summarize(path: str | os.PathLike) -> str:
     Raises
     ------
     OSError
-        If the file cannot be read as netCDF.
+        If the file cannot be read as netCDF, or is damaged (``filename`` is ``path``).
     ValueError
         If it is a netCDF file but not a sweep output.
     """
     lines = []
-    with netCDF4.Dataset(path, "r") as nc:
+    with _reading(path), netCDF4.Dataset(path, "r") as nc:
         nc.set_auto_maskandscale(False)
         attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
         _require_sweep_output(path, attrs)

@@ -114,7 +114,7 @@ __all__ = [
     "Outputs", "IntegratorSettings", "DAMPING_MODELS",
     "load", "loads", "from_dict", "as_config", "PARAMETERS", "METHODS", "APPROXIMATIONS",
     "INTEGRATOR_FIELDS",
-    "DESIGN_KINDS", "SAMPLERS", "DEFAULT_CHUNK_SIZE",
+    "DESIGN_KINDS", "SAMPLERS", "DEFAULT_CHUNK_SIZE", "CHUNK_SIZE_RULE", "is_chunk_size",
 ]
 
 #: The four scaled parameters of the report's eq. (2), in dataset dimension order.
@@ -145,6 +145,25 @@ class ConfigError(ValueError):
 def _is_int(v):
     # TOML booleans are Python bools, which are ints: never accept them as numbers.
     return isinstance(v, int) and not isinstance(v, bool)
+
+
+#: The chunk sizes a run accepts (``run.chunk_size``, ``run(chunk_size=)``), as its messages
+#: say it.
+CHUNK_SIZE_RULE = f"an integer from 1 to {limits.MAX_CHUNK_SIZE:,}"
+
+
+def is_chunk_size(value: Any) -> bool:
+    """True for a chunk size a run accepts (:data:`CHUNK_SIZE_RULE`).
+
+    Parameters
+    ----------
+    value : object
+
+    Returns
+    -------
+    bool
+    """
+    return _is_int(value) and 1 <= value <= limits.MAX_CHUNK_SIZE
 
 
 def _is_number(v):
@@ -953,8 +972,7 @@ def loads(text, source=""):
     integrator = _parse_integrator(root.table("integrator"))
     options = _parse_options(root.table("options"), outputs)
     run = root.table("run")
-    chunk_size = run.get("chunk_size", lambda v: _is_int(v) and v >= 1, "an integer >= 1",
-                         DEFAULT_CHUNK_SIZE)
+    chunk_size = run.get("chunk_size", is_chunk_size, CHUNK_SIZE_RULE, DEFAULT_CHUNK_SIZE)
     run.finish()
     root.finish()
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)

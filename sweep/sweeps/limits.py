@@ -14,7 +14,7 @@ from __future__ import annotations
 
 __all__ = [
     "CONFIG_MAX_BYTES", "CONFIG_MAX_DEPTH", "GRID_AXIS_MAX_POINTS", "MAX_POINTS",
-    "MAX_OUTPUT_BYTES", "MAX_CHUNKS", "CHUNK_FILE_OVERHEAD", "DISK_FULL_MARGIN",
+    "MAX_OUTPUT_BYTES", "MAX_CHUNKS", "MAX_CHUNK_SIZE", "CHUNK_FILE_OVERHEAD", "DISK_FULL_MARGIN",
     "SCHEDULER_TIMEOUT_S", "CALIBRATION_SECONDS", "CALIBRATION_MAX_POINTS",
     "PROGRESS_INTERVAL_S",
 ]
@@ -40,6 +40,11 @@ MAX_OUTPUT_BYTES = 100 * 10 ** 9
 #: Most chunks a run may cut its design into without ``--force``: one file per finished
 #: chunk sits in one directory, and the set of finished ones is held in memory on resume.
 MAX_CHUNKS = 2 ** 20
+#: Largest chunk (``run.chunk_size``, ``--chunk-size``) [points], checked before anything is
+#: written: above :data:`MAX_POINTS`, so any design run without ``--force`` fits in one
+#: chunk, and far inside the 64-bit integer the file and the manifest record (a 10^23 one
+#: failed there, after the partial directory was made, and that blocked the next run).
+MAX_CHUNK_SIZE = 2 ** 31
 #: Disk space a saved chunk file takes beyond its values [bytes]: npz headers and rounding
 #: to the file system's block.
 CHUNK_FILE_OVERHEAD = 8192

@@ -30,7 +30,7 @@ from sweep import store
 from sweep._format import count, format_bytes, format_duration
 from sweep.sweeps import limits
 
-__all__ = ["Limits", "Preflight", "preflight", "free_disk", "physical_memory",
+__all__ = ["Limits", "Preflight", "preflight", "free_disk", "free_inodes", "physical_memory",
            "estimate_rate", "calibrate", "format_bytes", "format_duration"]
 
 
@@ -67,6 +67,20 @@ def free_disk(directory: str | os.PathLike | None) -> int | None:
             return shutil.disk_usage(candidate).free
         except OSError:
             continue
+    return None
+
+
+def free_inodes(directory: str | os.PathLike) -> int | None:
+    """Files that can still be created where ``directory`` is or would be (as
+    :func:`free_disk`); None where the file system does not count them (it reports 0
+    inodes in all) or cannot be asked."""
+    path = Path(directory).absolute()
+    for candidate in (path, *path.parents):
+        try:
+            st = os.statvfs(candidate)
+        except (OSError, AttributeError):  # AttributeError: no statvfs (Windows)
+            continue
+        return st.f_favail if st.f_files else None
     return None
 
 

@@ -21,7 +21,58 @@ from typing import Any, TextIO
 from sweep._format import count, format_duration, rate
 from sweep.sweeps import limits
 
-__all__ = ["progress", "LineProgress"]
+__all__ = ["progress", "LineProgress", "DroppingStream"]
+
+
+class DroppingStream:
+    """A text stream that drops everything, silently, from the first write that fails.
+
+    A run's messages and progress are not its result: a stderr that fails (its reader left,
+    ``2>/dev/full``) must neither stop the run nor be blamed on the output file, which
+    said "cannot write X.partial: Broken pipe" and lost the run.
+
+    Parameters
+    ----------
+    stream : file
+        Where the text goes while it can (``sys.stderr``).
+
+    Attributes
+    ----------
+    failed : bool
+        A write or flush failed: nothing more is written.
+    """
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+        self.failed = False
+
+    def _attempt(self, method: str, *args: Any) -> None:
+        if self.failed:
+            return
+        try:
+            getattr(self.stream, method)(*args)
+        except (OSError, ValueError):  # ValueError: the stream was closed
+            self.failed = True
+
+    def write(self, text: str) -> int:
+        """Write ``text`` unless a write has failed; returns its length either way."""
+        self._attempt("write", text)
+        return len(text)
+
+    def flush(self) -> None:
+        """Flush the stream unless a write has failed."""
+        self._attempt("flush")
+
+    def isatty(self) -> bool:
+        """Whether the stream is a terminal (False if it cannot say)."""
+        try:
+            return bool(self.stream.isatty())
+        except (AttributeError, OSError, ValueError):
+            return False
+
+    def __getattr__(self, name: str) -> Any:
+        # fileno, encoding, ...: as the stream has them (tqdm sizes its bar by fileno)
+        return getattr(self.stream, name)
 
 
 class LineProgress:
@@ -113,7 +164,7 @@ def progress(total: int, initial: int = 0, *, quiet: bool = False, desc: str = "
         Seconds between two plain lines off a terminal [s] (default
         :data:`sweep.sweeps.limits.PROGRESS_INTERVAL_S`).
     stream : file, optional
-        Default ``sys.stderr`` (looked up at the call).
+        Default ``sys.stderr`` (looked up at the call) in a :class:`DroppingStream`.
     clock : callable
         Monotonic clock of the plain lines [s].
 
@@ -123,7 +174,7 @@ def progress(total: int, initial: int = 0, *, quiet: bool = False, desc: str = "
     """
     if quiet:
         return _Silent()
-    stream = sys.stderr if stream is None else stream
+    stream = DroppingStream(sys.stderr) if stream is None else stream
     isatty = getattr(stream, "isatty", None)
     if isatty is not None and isatty():
         from tqdm.auto import tqdm

@@ -526,6 +526,15 @@ class _Job:
     chunks: Any = ()
     pre: Any = None
     progress_interval: float | None = None
+    restart: bool = False
+    stream: Any = None  # of the progress (a DroppingStream on stderr)
+
+    @property
+    def resume_advice(self) -> str:
+        """How to resume from the finished chunks: the same command, but not with
+        --restart, which would discard them."""
+        return ("rerun without --restart to resume" if self.restart
+                else "rerun the same command to resume")
 
     @property
     def label(self) -> str:
@@ -590,8 +599,10 @@ def _prepare(cfg, output, chunk_size, quiet, log, in_memory=False):
     in-memory run), build the design."""
     if not isinstance(cfg, _config.Config):
         cfg = _config.load(cfg)
+    # Messages and progress share one stream that a failure silences (not the run).
+    stream = _progress_mod.DroppingStream(sys.stderr)
     if log is None:
-        log = (lambda msg: None) if quiet else (lambda msg: print(msg, file=sys.stderr))
+        log = (lambda msg: None) if quiet else (lambda msg: print(msg, file=stream))
     if in_memory:
         output = None
     else:
@@ -599,12 +610,12 @@ def _prepare(cfg, output, chunk_size, quiet, log, in_memory=False):
         _check_output_path(output)
     if chunk_size is None:
         chunk_size = cfg.chunk_size
-    elif isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
-        raise RunError(f"chunk size must be an integer >= 1, got {chunk_size!r}")
+    elif not _config.is_chunk_size(chunk_size):
+        raise RunError(f"chunk size must be {_config.CHUNK_SIZE_RULE}, got {chunk_size!r}")
     design = _design.build(cfg.design, cfg.source)
     job = _Job(cfg=cfg, design=design, plan=ComputePlan.from_config(cfg),
                layout=design.layout(), output=output, chunk_size=int(chunk_size), log=log,
-               result=RunResult(output=output, n_points=design.size))
+               result=RunResult(output=output, n_points=design.size), stream=stream)
     job.pre = _preflight_mod.preflight(job.layout, job.plan.variables, job.chunk_size,
                                        job.output)
     return job
@@ -707,6 +718,7 @@ def _existing_output_is_current(job, restart):
     if (attrs and attrs.get("sweep_config_sha256") == job.cfg.sha256
             and attrs.get("sweep_version") == __version__
             and attrs.get("sweep_source_sha256") == source_sha256()):
+        _check_intact(output)
         job.log(f"{output} is up to date (same configuration and version); nothing to do. "
                 "Use --restart to recompute it.")
         return True
@@ -714,6 +726,19 @@ def _existing_output_is_current(job, restart):
             else "is not a sweep output")
     raise store.ResumeError(f"{output} exists and {what}; use --restart to overwrite "
                             "it, or choose another output with -o")
+
+
+def _check_intact(output):
+    """Refuse to call a damaged output up to date: its attributes match, but its values
+    must read back too (bytes overwritten in the middle of the file left the attributes
+    readable; see :func:`sweep.store.check_readable` for why reading is the check)."""
+    try:
+        store.check_readable(output)
+    except OSError as exc:
+        raise store.ResumeError(
+            f"{output} has this configuration's attributes but cannot be read "
+            f"({exc.strerror or exc}): it is damaged; use --restart to recompute it, or "
+            "choose another output with -o") from exc
 
 
 def _plan_chunks(job):
@@ -838,7 +863,7 @@ def _stream_chunks(job, partial, done, behind, quiet, client):
     totals, result = _Totals(), job.result
     last = time.perf_counter()
     with _progress_mod.progress(job.design.size, done_points, quiet=quiet, desc=job.label,
-                                interval=job.progress_interval) as bar:
+                                interval=job.progress_interval, stream=job.stream) as bar:
         tasks = _tasks(job, partial, done, behind, totals, bar)
         executor = (_local_executor(job.plan, tasks) if client is None
                     else _dask_executor(job.plan, tasks, client))
@@ -936,17 +961,26 @@ def _disk_is_full(exc, directory):
             and free < _limits.DISK_FULL_MARGIN)
 
 
+def _full_disk_text(exc, directory):
+    """What ran out where ``directory`` is, in the words of the error: bytes, inodes (a
+    file system can have bytes free and no file left to create) or a quota."""
+    free = _preflight_mod.format_bytes(_preflight_mod.free_disk(directory) or 0)
+    if isinstance(exc, OSError) and exc.errno != errno.ENOSPC:  # EDQUOT: over a quota
+        return f"cannot write {exc.filename or directory}: {exc.strerror} ({free} free)"
+    if _preflight_mod.free_inodes(directory) == 0:
+        return (f"no free inodes left on the device of {directory}: no file can be "
+                f"created ({free} free)")
+    return f"no space left on the device of {directory} ({free} free)"
+
+
 def _write_failure(job, partial, exc):
     """The one-line error for a failure while chunks are saved or written, or None to
     let ``exc`` through. Finished chunks are kept either way."""
     saved = len(partial.finished())
     keep = (f"the {count(saved, 'finished chunk')} {'is' if saved == 1 else 'are'} kept in "
-            f"{partial.dir}: rerun the same command to resume")
+            f"{partial.dir}: {job.resume_advice}")
     if _disk_is_full(exc, partial.dir):
-        free = _preflight_mod.free_disk(partial.dir)
-        return RunError(f"no space left on the device of {partial.dir} "
-                        f"({_preflight_mod.format_bytes(free or 0)} free); {keep} once "
-                        "space is freed")
+        return RunError(f"{_full_disk_text(exc, partial.dir)}; {keep} once space is freed")
     if isinstance(exc, OSError):
         return RunError(f"cannot write {exc.filename or partial.dir}: "
                         f"{exc.strerror or exc}; {keep}")
@@ -971,7 +1005,7 @@ def _write_output(job, partial, done, quiet, client, scheduler):
     except KeyboardInterrupt:
         n_saved = len(partial.finished())
         job.log(f"\ninterrupted: {n_saved:,} of {count(len(job.chunks), 'chunk')} saved in "
-                f"{partial.dir}; rerun the same command to resume")
+                f"{partial.dir}; {job.resume_advice}")
         raise
     except Exception as exc:
         failure = _write_failure(job, partial, exc)
@@ -1027,7 +1061,8 @@ def run(cfg: _config.Config | str | Path, output: str | Path | None = None, *,
     quiet : bool
         No progress bar, no messages.
     chunk_size : int, optional
-        Points per chunk, >= 1 (default: the configuration's ``run.chunk_size``).
+        Points per chunk, 1 to :data:`sweep.sweeps.limits.MAX_CHUNK_SIZE` (default: the
+        configuration's ``run.chunk_size``).
     scheduler : str or distributed.Client, optional
         Address of a Dask scheduler (``tcp://host:port``): run the chunks on that cluster.
     log : callable, optional
@@ -1062,7 +1097,7 @@ def run(cfg: _config.Config | str | Path, output: str | Path | None = None, *,
     """
     t_start = time.perf_counter()
     job = _prepare(cfg, output, chunk_size, quiet, log)
-    job.progress_interval = progress_interval
+    job.progress_interval, job.restart = progress_interval, restart
     _preflight(job, force, limits)
     lock = _take_lock(job)
     try:
