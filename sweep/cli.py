@@ -95,14 +95,15 @@ _SIZE_UNITS = {"": 1, "k": 10 ** 3, "m": 10 ** 6, "g": 10 ** 9, "t": 10 ** 12, "
 
 
 def _size(text):
-    """``"50G"``, ``"50GB"``, ``"2e11"`` -> bytes (decimal units)."""
+    """``"50G"``, ``"50GB"``, ``"2e11"`` -> bytes (decimal units): at least one byte, and
+    finite (``inf`` or ``1e400`` is no size: int() of it raised OverflowError)."""
     t = text.strip().lower().removesuffix("b")
     unit = t[-1:] if t[-1:] in _SIZE_UNITS and t[-1:] else ""
     try:
         value = float(t[:len(t) - len(unit)]) * _SIZE_UNITS[unit]
     except ValueError:
-        value = -1
-    if not value > 0:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 1):
         raise argparse.ArgumentTypeError(f"must be a size such as 500M or 2T, got {text!r}")
     return int(value)
 

@@ -299,3 +299,16 @@ def test_report_numbers_out_of_range_are_usage_errors(capsys, argv, bad):
     err = capsys.readouterr().err
     assert info.value.code == 2
     assert err.count("\n") == 1 and f"argument {bad}: must be" in err and argv[-1] in err
+
+
+@pytest.mark.parametrize("command", ["run", "validate"])
+@pytest.mark.parametrize("size", ["inf", "1e400", "nan", "0.5"])
+def test_a_size_out_of_range_is_a_usage_error(cfg, capsys, command, size):
+    # QA: --max-size inf (or 1e400, past a double) ended in an OverflowError traceback from
+    # int(inf); 0.5 became a limit of 0 bytes that refused every design.
+    with pytest.raises(SystemExit) as info:
+        cli.main([command, str(cfg), "--max-size", size])
+    err = capsys.readouterr().err
+    assert info.value.code == 2
+    assert err.count("\n") == 1 and "argument --max-size: must be a size" in err
+    assert repr(size) in err
