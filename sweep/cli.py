@@ -220,15 +220,34 @@ def _cmd_validate(args):
     return 0
 
 
+def _names(exc: OSError, path: str) -> bool:
+    """The error is about the file ``path`` (the same file, however it was spelt)."""
+    return exc.filename is not None and Path(os.fspath(exc.filename)) == Path(path)
+
+
+def _input_fault(args: argparse.Namespace, exc: Exception, path: str) -> int:
+    """Print the one line of a fault of the input file ``path`` and return status 1.
+
+    ``cannot read X: not a netCDF file`` where the file cannot be read; an OSError about
+    another file (an output that cannot be written) names that file; any other error is
+    prefixed by ``path`` (e.g. ``X: not a scene dataset: ...``).
+    """
+    if isinstance(exc, OSError) and exc.filename is not None:
+        where = f"cannot read {path}" if _names(exc, path) else os.fspath(exc.filename)
+        text = f"{where}: {exc.strerror or exc}"
+    else:
+        text = f"{path}: {_one_line(exc)}"
+    print(f"{_command_name(args)}: error: {text}", file=sys.stderr)
+    return 1
+
+
 def _cmd_info(args):
     from sweep import store
 
     try:
         text = store.summarize(args.path)
     except OSError as exc:
-        print(f"sweep info: error: cannot read {args.path}: {exc.strerror or exc}",
-              file=sys.stderr)
-        return 1
+        return _input_fault(args, exc, args.path)
     except ValueError as exc:  # a netCDF file, but not a sweep output
         print(f"sweep info: error: {exc}", file=sys.stderr)
         return 1
@@ -261,8 +280,7 @@ def _cmd_accuracy(args):
     try:
         res = accuracy_report(args.dataset, args.out)
     except (OSError, ValueError) as exc:
-        print(f"sweep report accuracy: error: {args.dataset}: {exc}", file=sys.stderr)
-        return 1
+        return _input_fault(args, exc, args.dataset)
     return _print_files(res, f"accuracy report of {args.dataset}: {len(res['files'])} "
                              f"files in {res['out']}")
 
@@ -444,8 +462,7 @@ def _cmd_export(args):
     except BrokenPipeError:  # stdout closed, the dataset is fine: main() handles it
         raise
     except (OSError, ValueError) as exc:
-        print(f"sweep export: error: {args.dataset}: {exc}", file=sys.stderr)
-        return 1
+        return _input_fault(args, exc, args.dataset)
     return 0
 
 
@@ -514,6 +531,10 @@ def _cmd_bounce(args):
     except ValueError as exc:  # what the options cannot show, e.g. a scale (2) overflow
         print(f"sweep example bounce: error: {exc}", file=sys.stderr)
         return 1
+    except OSError as exc:
+        if args.table is None or not _names(exc, args.table):
+            raise               # a file of --out: main() names it
+        return _input_fault(args, exc, args.table)
     print(res["summary"])
     return _print_files(res, f"files in {args.out}:")
 

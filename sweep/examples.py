@@ -323,16 +323,19 @@ def bounce_example(out: str | Path = "bounce", material: design.Material = STEEL
     ValueError
         A bad value, or an argument that has no effect with this ``source``, before any
         file is written; the message names the parameter and its value.
+    OSError
+        ``table`` cannot be read or is not netCDF (:func:`sweep.store.open_dataset`), before
+        any file is written.
     """
     _check_example_inputs(source, table, method, h0, g, v_stop, options)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     v_hi = first_impact_speed(h0, g) * (1.0 + 1e-9)
     if source == "lookup":
         cor, err = lookup_cor(material, g, v_stop, v_hi, table)
         label = f"lookup table (stated error {err['max_abs']:.2g})"
     else:
         cor, err, label = direct_cor(material, g, method, **options), None, f"direct, {method}"
+    out = Path(out)     # after the table was read: a file that is none leaves no directory
+    out.mkdir(parents=True, exist_ok=True)
     result = bounce(cor, material, h0, g, v_stop, cor_source=label)
     result.table_error = err
     csv_path = out / "bounce_impacts.csv"

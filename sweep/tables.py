@@ -22,8 +22,9 @@ lattice four times finer, not a proof. :func:`lookup` is the one-call form.
 (material, v0, F), units in the header) or NumPy ``.npz`` (arrays on (material, v0, F)).
 
 Owns: interpolation of scene datasets, the held-back check and the export formats. May
-import: :mod:`sweep.api`, :mod:`sweep.model`, :mod:`sweep.registry`, numpy; scipy and
-xarray inside the functions (``import sweep`` stays light). Floor 3.
+import: :mod:`sweep.api`, :mod:`sweep.model`, :mod:`sweep.registry`, :mod:`sweep.store`
+(:func:`~sweep.store.open_dataset`, which opens a file), numpy; scipy inside the functions
+(``import sweep`` stays light). Floor 3.
 """
 from __future__ import annotations
 
@@ -35,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from sweep import api, registry
+from sweep import api, registry, store
 from sweep.model import scale
 
 __all__ = ["Table", "lookup", "export", "SCENE_DIMS", "HELD_BACK_FRACTIONS"]
@@ -48,10 +49,8 @@ _MATERIAL_VARIABLES = ("m", "k", "gamma0", "alpha", "beta")
 
 
 def _open(dataset: Any) -> Any:
-    import xarray as xr
-
     if isinstance(dataset, (str, os.PathLike)):
-        with xr.open_dataset(dataset) as ds:
+        with store.open_dataset(dataset) as ds:
             return ds.load()
     return dataset
 

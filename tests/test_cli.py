@@ -312,3 +312,19 @@ def test_a_size_out_of_range_is_a_usage_error(cfg, capsys, command, size):
     assert info.value.code == 2
     assert err.count("\n") == 1 and "argument --max-size: must be a size" in err
     assert repr(size) in err
+
+
+@pytest.mark.parametrize("content", [b"not a dataset\n", bytes(range(256)) * 4])
+@pytest.mark.parametrize("command", [["export", "{}", "--csv"], ["report", "accuracy", "{}"],
+                                     ["example", "bounce", "--cor", "lookup", "--table", "{}"],
+                                     ["info", "{}"]])
+def test_a_file_that_is_not_netcdf_is_one_line(tmp_path, capsys, monkeypatch, content,
+                                               command):
+    # QA: export, report accuracy and example bounce printed xarray's three lines about IO
+    # backends, with URLs; all of them open a file by sweep.store.open_dataset now.
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "x.nc").write_bytes(content)
+    assert cli.main([a.format("x.nc") for a in command]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.endswith("error: cannot read x.nc: not a netCDF file\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.nc"]     # nothing written
