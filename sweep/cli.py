@@ -88,6 +88,26 @@ def _number_above_zero(unit="", finite=True):
 
 
 _finite_positive = _number_above_zero
+
+
+def _resolution(also_half=False):
+    """An argparse ``type=``: a resolution ``steps`` the integrator accepts, by the
+    registry's own check and rule (its range is the registry's, not a copy); with
+    ``also_half``, half of it too (report speed checks its reference at half of it)."""
+    from sweep import registry
+
+    option = registry.METHODS["numeric"].option("steps")
+
+    def convert(text):
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (option.check(value) and (not also_half or option.check(value / 2))):
+            half = ", and so must half of it (the reference's check)" if also_half else ""
+            raise argparse.ArgumentTypeError(f"must be {option.rule}{half}, got {text!r}")
+        return value
+    return convert
 _positive_float = _number_above_zero(finite=False)
 
 
@@ -336,7 +356,7 @@ def _add_paper_command(sub, models):
                    help="gamma grid points per (model, g~) (default 1000, as the report)")
     p.add_argument("--n-crit", type=_positive_int, default=100, metavar="N",
                    help="gamma values of Figures 8-11 (default 100, as the report)")
-    p.add_argument("--steps", type=_finite_positive(), default=None,
+    p.add_argument("--steps", type=_resolution(), default=None,
                    help="integrator resolution (default: the package default)")
     p.add_argument("--models", nargs="+", choices=models, default=None,
                    help="subset of models (default: all four)")
@@ -370,7 +390,7 @@ def _add_speed_command(sub, models):
     p.add_argument("--peers", nargs="+", choices=("scipy", "numbalsoda", "diffrax"),
                    default=["scipy", "numbalsoda", "diffrax"],
                    help="peers to time (default: all; the optional ones when installed)")
-    p.add_argument("--ref-steps", type=_finite_positive(), default=1024.0,
+    p.add_argument("--ref-steps", type=_resolution(also_half=True), default=1024.0,
                    help="resolution of the reference (default 1024)")
     p.add_argument("--ref-tol", type=_finite_positive(), default=1e-13,
                    help="refinement target of the reference (default 1e-13)")

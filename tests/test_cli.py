@@ -283,6 +283,11 @@ def test_a_closed_stdout_in_process_returns_quietly(monkeypatch, capsys, tmp_pat
     (["report", "paper", "--n-crit", "0"], "--n-crit"),
     (["report", "paper", "--steps", "0"], "--steps"),
     (["report", "paper", "--steps", "nan"], "--steps"),
+    # Below the integrator's 2 (was "unexpected ValueError", exit 1), beyond every budget
+    (["report", "paper", "--steps", "1"], "--steps"),
+    (["report", "paper", "--steps", "1e300"], "--steps"),
+    (["report", "speed", "--ref-steps", "3"], "--ref-steps"),    # its half, 1.5, is < 2
+    (["report", "speed", "--ref-steps", "1e300"], "--ref-steps"),
     (["report", "error-model", "--sub", "0"], "--sub"),
     (["report", "error-model", "--n-validate", "-1"], "--n-validate"),
     (["report", "speed", "--seed", "-3"], "--seed"),
