@@ -6,9 +6,9 @@ settings, read in bounded pieces so a file of any size can be described),
 :func:`open_dataset` (how every reader of a dataset given by the user opens it: export,
 lookup tables, the accuracy report).
 
-May import: numpy, netCDF4, xarray (inside :func:`open_dataset`), the store's own :mod:`~sweep.store.layout` and
-:mod:`~sweep.store.metadata`, and :mod:`sweep._format` (floor 0). Nothing of numba, the
-kernels or any floor above the store.
+May import: numpy, netCDF4, xarray (inside :func:`open_dataset`), the store's own
+:mod:`~sweep.store.layout` and :mod:`~sweep.store.metadata`, and :mod:`sweep._format`
+(floor 0). Nothing of numba, the kernels or any floor above the store.
 """
 from __future__ import annotations
 
