@@ -54,20 +54,31 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def _int_at_least(low):
-    """An argparse ``type=``: an integer >= ``low``."""
+def _int_at_least(low, high=None):
+    """An argparse ``type=``: an integer >= ``low``, and <= ``high`` if given."""
+    rule = f">= {low}" if high is None else f"in [{low}, {high}]"
+
     def convert(text):
         try:
             value = int(text)
         except ValueError:
             value = low - 1
-        if value < low:
-            raise argparse.ArgumentTypeError(f"must be an integer >= {low}, got {text!r}")
+        if not (low <= value and (high is None or value <= high)):
+            raise argparse.ArgumentTypeError(f"must be an integer {rule}, got {text!r}")
         return value
     return convert
 
 
 _positive_int = _int_at_least(1)
+
+
+def _points(low=1):
+    """An argparse ``type=``: a number of points a report computes, >= ``low`` and at most
+    the largest design ``sweep run`` starts unforced (its arrays are held in memory: beyond,
+    numpy refused them only once the report had run that far, as an 'unexpected' error)."""
+    from sweep.sweeps import limits
+
+    return _int_at_least(low, limits.MAX_POINTS)
 
 
 def _number_above_zero(unit="", finite=True):
@@ -137,7 +148,7 @@ def _add_debug(p):
 def _add_limit_options(p):
     from sweep.sweeps import limits
 
-    p.add_argument("--chunk-size", type=_positive_int, metavar="N",
+    p.add_argument("--chunk-size", type=_int_at_least(1, limits.MAX_CHUNK_SIZE), metavar="N",
                    help="points per chunk (default: the configuration's run.chunk_size)")
     p.add_argument("--max-points", type=_positive_int, metavar="N",
                    default=limits.MAX_POINTS,
@@ -352,9 +363,9 @@ def _add_paper_command(sub, models):
                     "eq. (24)).")
     p.add_argument("--out", metavar="DIR", default="paper_report",
                    help="output directory (default: ./paper_report)")
-    p.add_argument("--n-gamma", type=_int_at_least(2), default=1000, metavar="N",
+    p.add_argument("--n-gamma", type=_points(2), default=1000, metavar="N",
                    help="gamma grid points per (model, g~) (default 1000, as the report)")
-    p.add_argument("--n-crit", type=_positive_int, default=100, metavar="N",
+    p.add_argument("--n-crit", type=_points(), default=100, metavar="N",
                    help="gamma values of Figures 8-11 (default 100, as the report)")
     p.add_argument("--steps", type=_resolution(), default=None,
                    help="integrator resolution (default: the package default)")
@@ -375,15 +386,15 @@ def _add_speed_command(sub, models):
                     "time ratio at equal error. The defaults take a few minutes.")
     p.add_argument("--out", metavar="DIR", default="speed_report",
                    help="output directory (default: ./speed_report)")
-    p.add_argument("--n-points", type=_positive_int, default=20000, metavar="N",
+    p.add_argument("--n-points", type=_points(), default=20000, metavar="N",
                    help="common point set size (default 20000)")
-    p.add_argument("--n-peer", "--n-scipy", dest="n_peer", type=_positive_int, default=100,
+    p.add_argument("--n-peer", "--n-scipy", dest="n_peer", type=_points(), default=100,
                    metavar="N", help="points of the subset given to the peers (default 100)")
-    p.add_argument("--n-vector", type=_positive_int, default=2000, metavar="N",
+    p.add_argument("--n-vector", type=_points(), default=2000, metavar="N",
                    help="points given to the vectorised peer, diffrax (default 2000)")
-    p.add_argument("--n-check", type=_positive_int, default=100, metavar="N",
+    p.add_argument("--n-check", type=_points(), default=100, metavar="N",
                    help="points on which the reference is cross-checked with DOP853")
-    p.add_argument("--n-closed", type=_positive_int, default=2_000_000, metavar="N",
+    p.add_argument("--n-closed", type=_points(), default=2_000_000, metavar="N",
                    help="largest tiled set the closed forms are timed on (default 2000000)")
     p.add_argument("--tols", type=_finite_positive(), nargs="+", metavar="TOL",
                    help="the engine's accuracy targets (default 1e-4 ... 1e-11)")
@@ -423,9 +434,9 @@ def _add_error_model_command(sub):
                     "random points in and out of the model.")
     p.add_argument("--out", metavar="FILE.npz", default=None,
                    help="where to write the model (default: the file the package ships)")
-    p.add_argument("--sub", type=_positive_int, default=2, metavar="N",
+    p.add_argument("--sub", type=_points(), default=2, metavar="N",
                    help="samples per cell edge (default 2)")
-    p.add_argument("--n-validate", type=_int_at_least(0), default=20000, metavar="N",
+    p.add_argument("--n-validate", type=_points(0), default=20000, metavar="N",
                    help="random points of the validation (default 20000; 0: none)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     p.set_defaults(func=_cmd_error_model)

@@ -288,6 +288,13 @@ def test_a_closed_stdout_in_process_returns_quietly(monkeypatch, capsys, tmp_pat
     (["report", "paper", "--steps", "1e300"], "--steps"),
     (["report", "speed", "--ref-steps", "3"], "--ref-steps"),    # its half, 1.5, is < 2
     (["report", "speed", "--ref-steps", "1e300"], "--ref-steps"),
+    # Counts of points past what numpy can hold: "unexpected ValueError: Maximum allowed
+    # size exceeded" (--n-validate: OverflowError, after minutes of judging)
+    (["report", "paper", "--n-gamma", "1" + "0" * 30], "--n-gamma"),
+    (["report", "paper", "--n-crit", "1" + "0" * 30], "--n-crit"),
+    (["report", "speed", "--n-points", "1" + "0" * 30], "--n-points"),
+    (["report", "error-model", "--sub", "1" + "0" * 30], "--sub"),
+    (["report", "error-model", "--n-validate", "1" + "0" * 30], "--n-validate"),
     (["report", "error-model", "--sub", "0"], "--sub"),
     (["report", "error-model", "--n-validate", "-1"], "--n-validate"),
     (["report", "speed", "--seed", "-3"], "--seed"),

@@ -203,7 +203,8 @@ def test_doe_needs_a_sampled_axis_and_lhs_size_limit():
     ("[options.ord2_approx]\nm = 21", ["options.ord2_approx.m", "unknown option"]),
     ("[options.ord9]\nn = 21", ["options.ord9", "unknown method"]),
     ("[options.ord2_approx]\nn = 21", ["options.ord2_approx", "does not compute", "ord1"]),
-    ("[run]\nchunk_size = 0", ["run.chunk_size", ">= 1", "0"]),
+    ("[run]\nchunk_size = 0", ["run.chunk_size", "[1, 9223372036854775807]", "0"]),
+    ("[run]\nchunk_size = 9223372036854775808", ["run.chunk_size", "9223372036854775808"]),
 ])
 def test_other_table_errors(extra, expected):
     msg = _err(GRID + extra)

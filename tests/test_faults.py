@@ -472,7 +472,7 @@ def _non_sweep_netcdf(path):
 
 @pytest.mark.parametrize("case", [
     "not-utf8", "deep", "dev-zero", "oversized", "axis", "zarr", "long-name", "directory",
-    "chunk-negative", "chunk-zero", "info-not-sweep", "scheduler"])
+    "chunk-negative", "chunk-zero", "chunk-huge", "info-not-sweep", "scheduler"])
 def test_input_faults_end_in_one_line(tmp_path, capsys, case):
     cfg = tmp_path / "c.toml"
     cfg.write_text(GRID)
@@ -488,6 +488,8 @@ def test_input_faults_end_in_one_line(tmp_path, capsys, case):
         "directory": ("out.nc is a directory",),
         "chunk-negative": ("--chunk-size", "-5"),
         "chunk-zero": ("--chunk-size", "'0'"),
+        # past the output's int64 attribute: it ran the design, then failed to write it
+        "chunk-huge": ("--chunk-size", "9223372036854775808"),
         "info-not-sweep": ("not a sweep output", "x.nc"),
         "scheduler": ("cannot reach the Dask scheduler", "'nonsense'"),
     }[case]
@@ -512,6 +514,8 @@ def test_input_faults_end_in_one_line(tmp_path, capsys, case):
         argv += ["--chunk-size", "-5"]
     elif case == "chunk-zero":
         argv += ["--chunk-size", "0"]
+    elif case == "chunk-huge":
+        argv += ["--chunk-size", str(2 ** 63)]
     elif case == "info-not-sweep":
         _non_sweep_netcdf(tmp_path / "x.nc")
         argv = ["info", str(tmp_path / "x.nc")]
@@ -579,3 +583,18 @@ def test_signals_wait_for_the_end_of_the_publication():
     finally:
         signal.signal(signal.SIGTERM, previous)
     assert reached
+
+
+@pytest.mark.parametrize("through", ["argument", "config"])
+def test_a_chunk_size_past_int64_is_refused_before_the_run(tmp_path, through):
+    # QA scan: sweep.run(chunk_size=2**63), or run.chunk_size = 2**63 (tomllib reads integers
+    # of any size), computed every point, then failed on the file's int64 attribute.
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID if through == "argument"
+                   else GRID.replace("chunk_size = 10\n", "chunk_size = 9223372036854775808\n"))
+    kwargs = {"chunk_size": 2 ** 63} if through == "argument" else {}
+    error = runner.RunError if through == "argument" else config.ConfigError
+    with pytest.raises(error, match=r"chunk.size.*9223372036854775807\].*9223372036854775808"):
+        runner.run(cfg, tmp_path / "out.nc", quiet=True, **kwargs)
+    assert not (tmp_path / "out.nc").exists()
+    assert not (tmp_path / "out.nc.partial").exists()

@@ -953,8 +953,8 @@ def loads(text, source=""):
     integrator = _parse_integrator(root.table("integrator"))
     options = _parse_options(root.table("options"), outputs)
     run = root.table("run")
-    chunk_size = run.get("chunk_size", lambda v: _is_int(v) and v >= 1, "an integer >= 1",
-                         DEFAULT_CHUNK_SIZE)
+    chunk_size = run.get("chunk_size", lambda v: _is_int(v) and 1 <= v <= limits.MAX_CHUNK_SIZE,
+                         f"an integer in [1, {limits.MAX_CHUNK_SIZE}]", DEFAULT_CHUNK_SIZE)
     run.finish()
     root.finish()
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)

@@ -13,7 +13,7 @@ Floor 4: imports nothing (plain numbers).
 from __future__ import annotations
 
 __all__ = [
-    "CONFIG_MAX_BYTES", "CONFIG_MAX_DEPTH", "GRID_AXIS_MAX_POINTS", "MAX_POINTS",
+    "CONFIG_MAX_BYTES", "CONFIG_MAX_DEPTH", "GRID_AXIS_MAX_POINTS", "MAX_POINTS", "MAX_CHUNK_SIZE",
     "MAX_OUTPUT_BYTES", "MAX_CHUNKS", "CHUNK_FILE_OVERHEAD", "DISK_FULL_MARGIN",
     "SCHEDULER_TIMEOUT_S", "CALIBRATION_SECONDS", "CALIBRATION_MAX_POINTS",
     "PROGRESS_INTERVAL_S",
@@ -35,6 +35,10 @@ GRID_AXIS_MAX_POINTS = 2 ** 20
 #: Default largest design ``sweep run`` starts without ``--force`` [points]: ten times the
 #: 10^8-point benchmark, about 11 h at the end-to-end rate of the README.
 MAX_POINTS = 10 ** 9
+#: Largest chunk size [points]: the output records it in an int64 attribute (a larger
+#: ``--chunk-size`` ran the whole design, then failed to write the file), and TOML's
+#: integers, ``run.chunk_size``, end there too.
+MAX_CHUNK_SIZE = 2 ** 63 - 1
 #: Default largest output without ``--force`` [bytes, uncompressed values and coordinates].
 MAX_OUTPUT_BYTES = 100 * 10 ** 9
 #: Most chunks a run may cut its design into without ``--force``: one file per finished

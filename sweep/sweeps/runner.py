@@ -599,8 +599,10 @@ def _prepare(cfg, output, chunk_size, quiet, log, in_memory=False):
         _check_output_path(output)
     if chunk_size is None:
         chunk_size = cfg.chunk_size
-    elif isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
-        raise RunError(f"chunk size must be an integer >= 1, got {chunk_size!r}")
+    elif (isinstance(chunk_size, bool) or not isinstance(chunk_size, int)
+          or not 1 <= chunk_size <= _limits.MAX_CHUNK_SIZE):
+        raise RunError(f"chunk size must be an integer in [1, {_limits.MAX_CHUNK_SIZE}], "
+                       f"got {chunk_size!r}")
     design = _design.build(cfg.design, cfg.source)
     job = _Job(cfg=cfg, design=design, plan=ComputePlan.from_config(cfg),
                layout=design.layout(), output=output, chunk_size=int(chunk_size), log=log,
