@@ -548,7 +548,10 @@ def _cmd_bounce(args):
     material, g = examples.STEEL_BALL, 9.81
     if args.scene:
         material, g = examples.scene_material(args.scene, args.material)
-    v_hit = examples.first_impact_speed(args.height, g)
+    try:
+        v_hit = examples.first_impact_speed(args.height, g)
+    except ValueError as exc:
+        args.usage_error(f"argument --height: {exc}, got {args.height!r}")
     if args.cor == "lookup" and args.table is None and not args.v_stop < v_hit:
         # the table built on the fly spans [--v-stop, first impact speed]: it would be empty
         args.usage_error(f"argument --v-stop: must be < the first impact speed {v_hit:.6g} "
