@@ -75,6 +75,15 @@ def _int_at_least(low, high=None):
 _positive_int = _int_at_least(1)
 
 
+def _points(low=1):
+    """An argparse ``type=``: a number of points a report computes, >= ``low`` and at most
+    the largest design ``sweep run`` starts unforced (its arrays are held in memory: beyond,
+    numpy refused them only once the report had run that far, as an 'unexpected' error)."""
+    from sweep.sweeps import limits
+
+    return _int_at_least(low, limits.MAX_POINTS)
+
+
 def _number_above_zero(unit="", finite=True):
     """An argparse ``type=``: a number > 0, finite unless ``finite`` is False (``inf``: an
     interval or a timeout that never comes); ``unit`` (e.g. ``" [m]"``) goes into the
@@ -93,6 +102,26 @@ def _number_above_zero(unit="", finite=True):
 
 
 _finite_positive = _number_above_zero
+
+
+def _resolution(also_half=False):
+    """An argparse ``type=``: a resolution ``steps`` the integrator accepts, by the
+    registry's own check and rule (its range is the registry's, not a copy); with
+    ``also_half``, half of it too (report speed checks its reference at half of it)."""
+    from sweep import registry
+
+    option = registry.METHODS["numeric"].option("steps")
+
+    def convert(text):
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (option.check(value) and (not also_half or option.check(value / 2))):
+            half = ", and so must half of it (the reference's check)" if also_half else ""
+            raise argparse.ArgumentTypeError(f"must be {option.rule}{half}, got {text!r}")
+        return value
+    return convert
 _positive_float = _number_above_zero(finite=False)
 
 
@@ -100,14 +129,15 @@ _SIZE_UNITS = {"": 1, "k": 10 ** 3, "m": 10 ** 6, "g": 10 ** 9, "t": 10 ** 12, "
 
 
 def _size(text):
-    """``"50G"``, ``"50GB"``, ``"2e11"`` -> bytes (decimal units)."""
+    """``"50G"``, ``"50GB"``, ``"2e11"`` -> bytes (decimal units): at least one byte, and
+    finite (``inf`` or ``1e400`` is no size: int() of it raised OverflowError)."""
     t = text.strip().lower().removesuffix("b")
     unit = t[-1:] if t[-1:] in _SIZE_UNITS and t[-1:] else ""
     try:
         value = float(t[:len(t) - len(unit)]) * _SIZE_UNITS[unit]
     except ValueError:
-        value = -1
-    if not value > 0:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 1):
         raise argparse.ArgumentTypeError(f"must be a size such as 500M or 2T, got {text!r}")
     return int(value)
 
@@ -224,15 +254,34 @@ def _cmd_validate(args):
     return 0
 
 
+def _names(exc: OSError, path: str) -> bool:
+    """The error is about the file ``path`` (the same file, however it was spelt)."""
+    return exc.filename is not None and Path(os.fspath(exc.filename)) == Path(path)
+
+
+def _input_fault(args: argparse.Namespace, exc: Exception, path: str) -> int:
+    """Print the one line of a fault of the input file ``path`` and return status 1.
+
+    ``cannot read X: not a netCDF file`` where the file cannot be read; an OSError about
+    another file (an output that cannot be written) names that file; any other error is
+    prefixed by ``path`` (e.g. ``X: not a scene dataset: ...``).
+    """
+    if isinstance(exc, OSError) and exc.filename is not None:
+        where = f"cannot read {path}" if _names(exc, path) else os.fspath(exc.filename)
+        text = f"{where}: {exc.strerror or exc}"
+    else:
+        text = f"{path}: {_one_line(exc)}"
+    print(f"{_command_name(args)}: error: {text}", file=sys.stderr)
+    return 1
+
+
 def _cmd_info(args):
     from sweep import store
 
     try:
         text = store.summarize(args.path)
     except OSError as exc:
-        print(f"sweep info: error: cannot read {args.path}: {exc.strerror or exc}",
-              file=sys.stderr)
-        return 1
+        return _input_fault(args, exc, args.path)
     except ValueError as exc:  # a netCDF file, but not a sweep output
         print(f"sweep info: error: {exc}", file=sys.stderr)
         return 1
@@ -265,8 +314,7 @@ def _cmd_accuracy(args):
     try:
         res = accuracy_report(args.dataset, args.out)
     except (OSError, ValueError) as exc:
-        print(f"sweep report accuracy: error: {args.dataset}: {exc}", file=sys.stderr)
-        return 1
+        return _input_fault(args, exc, args.dataset)
     return _print_files(res, f"accuracy report of {args.dataset}: {len(res['files'])} "
                              f"files in {res['out']}")
 
@@ -318,11 +366,11 @@ def _add_paper_command(sub, models):
                     "eq. (24)).")
     p.add_argument("--out", metavar="DIR", default="paper_report",
                    help="output directory (default: ./paper_report)")
-    p.add_argument("--n-gamma", type=_int_at_least(2), default=1000, metavar="N",
+    p.add_argument("--n-gamma", type=_points(2), default=1000, metavar="N",
                    help="gamma grid points per (model, g~) (default 1000, as the report)")
-    p.add_argument("--n-crit", type=_positive_int, default=100, metavar="N",
+    p.add_argument("--n-crit", type=_points(), default=100, metavar="N",
                    help="gamma values of Figures 8-11 (default 100, as the report)")
-    p.add_argument("--steps", type=_finite_positive(), default=None,
+    p.add_argument("--steps", type=_resolution(), default=None,
                    help="integrator resolution (default: the package default)")
     p.add_argument("--models", nargs="+", choices=models, default=None,
                    help="subset of models (default: all four)")
@@ -341,22 +389,22 @@ def _add_speed_command(sub, models):
                     "time ratio at equal error. The defaults take a few minutes.")
     p.add_argument("--out", metavar="DIR", default="speed_report",
                    help="output directory (default: ./speed_report)")
-    p.add_argument("--n-points", type=_positive_int, default=20000, metavar="N",
+    p.add_argument("--n-points", type=_points(), default=20000, metavar="N",
                    help="common point set size (default 20000)")
-    p.add_argument("--n-peer", "--n-scipy", dest="n_peer", type=_positive_int, default=100,
+    p.add_argument("--n-peer", "--n-scipy", dest="n_peer", type=_points(), default=100,
                    metavar="N", help="points of the subset given to the peers (default 100)")
-    p.add_argument("--n-vector", type=_positive_int, default=2000, metavar="N",
+    p.add_argument("--n-vector", type=_points(), default=2000, metavar="N",
                    help="points given to the vectorised peer, diffrax (default 2000)")
-    p.add_argument("--n-check", type=_positive_int, default=100, metavar="N",
+    p.add_argument("--n-check", type=_points(), default=100, metavar="N",
                    help="points on which the reference is cross-checked with DOP853")
-    p.add_argument("--n-closed", type=_positive_int, default=2_000_000, metavar="N",
+    p.add_argument("--n-closed", type=_points(), default=2_000_000, metavar="N",
                    help="largest tiled set the closed forms are timed on (default 2000000)")
     p.add_argument("--tols", type=_finite_positive(), nargs="+", metavar="TOL",
                    help="the engine's accuracy targets (default 1e-4 ... 1e-11)")
     p.add_argument("--peers", nargs="+", choices=("scipy", "numbalsoda", "diffrax"),
                    default=["scipy", "numbalsoda", "diffrax"],
                    help="peers to time (default: all; the optional ones when installed)")
-    p.add_argument("--ref-steps", type=_finite_positive(), default=1024.0,
+    p.add_argument("--ref-steps", type=_resolution(also_half=True), default=1024.0,
                    help="resolution of the reference (default 1024)")
     p.add_argument("--ref-tol", type=_finite_positive(), default=1e-13,
                    help="refinement target of the reference (default 1e-13)")
@@ -389,9 +437,9 @@ def _add_error_model_command(sub):
                     "random points in and out of the model.")
     p.add_argument("--out", metavar="FILE.npz", default=None,
                    help="where to write the model (default: the file the package ships)")
-    p.add_argument("--sub", type=_positive_int, default=2, metavar="N",
+    p.add_argument("--sub", type=_points(), default=2, metavar="N",
                    help="samples per cell edge (default 2)")
-    p.add_argument("--n-validate", type=_int_at_least(0), default=20000, metavar="N",
+    p.add_argument("--n-validate", type=_points(0), default=20000, metavar="N",
                    help="random points of the validation (default 20000; 0: none)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     p.set_defaults(func=_cmd_error_model)
@@ -452,8 +500,7 @@ def _cmd_export(args):
     except BrokenPipeError:  # stdout closed, the dataset is fine: main() handles it
         raise
     except (OSError, ValueError) as exc:
-        print(f"sweep export: error: {args.dataset}: {exc}", file=sys.stderr)
-        return 1
+        return _input_fault(args, exc, args.dataset)
     return 0
 
 
@@ -509,7 +556,10 @@ def _cmd_bounce(args):
     material, g = examples.STEEL_BALL, 9.81
     if args.scene:
         material, g = examples.scene_material(args.scene, args.material)
-    v_hit = examples.first_impact_speed(args.height, g)
+    try:
+        v_hit = examples.first_impact_speed(args.height, g)
+    except ValueError as exc:
+        args.usage_error(f"argument --height: {exc}, got {args.height!r}")
     if args.cor == "lookup" and args.table is None and not args.v_stop < v_hit:
         # the table built on the fly spans [--v-stop, first impact speed]: it would be empty
         args.usage_error(f"argument --v-stop: must be < the first impact speed {v_hit:.6g} "
@@ -523,6 +573,10 @@ def _cmd_bounce(args):
     except ValueError as exc:  # what the options cannot show, e.g. a scale (2) overflow
         print(f"sweep example bounce: error: {exc}", file=sys.stderr)
         return 1
+    except OSError as exc:
+        if args.table is None or not _names(exc, args.table):
+            raise               # a file of --out: main() names it
+        return _input_fault(args, exc, args.table)
     print(res["summary"])
     return _print_files(res, f"files in {args.out}:")
 

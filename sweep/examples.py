@@ -168,8 +168,18 @@ def lookup_cor(material: design.Material, g: float, v_lo: float, v_hi: float,
 
 def first_impact_speed(h0: float, g: float) -> float:
     """Speed [m/s] of a bead dropped from ``h0`` [m] at its first impact, ``sqrt(2 g h0)``
-    (``g`` [m/s^2]): the top of the speeds a bounce sequence meets."""
-    return math.sqrt(2.0 * g * h0)
+    (``g`` [m/s^2]): the top of the speeds a bounce sequence meets.
+
+    Raises
+    ------
+    ValueError
+        The speed overflows double precision (h0 = 1e308 m), naming h0 and g.
+    """
+    v = math.sqrt(2.0 * g * h0)
+    if math.isinf(v):   # else "v0 must be finite, got inf" came later, naming neither input
+        raise ValueError(f"h0 = {h0!r} m under g = {g!r} m/s^2 gives an impact speed "
+                         "sqrt(2 g h0) beyond double precision")
+    return v
 
 
 def _check_positive(name: str, value: Any, unit: str) -> None:
@@ -346,6 +356,9 @@ def bounce_example(out: str | Path = "bounce", material: design.Material = STEEL
     ValueError
         A bad value, an option of no effect with this ``source`` or a table that does not
         span the bounce (:func:`lookup_cor`), naming it, before anything is written.
+    OSError
+        ``table`` cannot be read or is not netCDF (:func:`sweep.store.open_dataset`), before
+        anything is written.
     """
     _check_example_inputs(source, table, method, h0, g, v_stop, options)
     if source == "lookup":

@@ -42,7 +42,8 @@ __all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "
            "short_repr", "register_method",
            "unregister_method", "register_field", "unregister_field", "method",
            "approximations", "composites", "method_fields", "integrator_fields",
-           "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX", "DEVICES"]
+           "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX", "DEVICES",
+           "MAX_STEP_BUDGET"]
 
 #: The report every equation number refers to.
 REPORT = ("A. Chatterjee, G. James, B. Brogliato, Approximate analytical coefficient of "
@@ -465,19 +466,28 @@ class Method:
 #: Where the numerical integration can run (the ``device`` option).
 DEVICES = ("cpu", "cuda")
 
+# n_steps (FIELDS, int32) exceeds max_steps by a few event-refinement steps at most: the
+# bound keeps it exact, far from 2**31.
+_BUDGET_POWER = 30
+#: Largest step budget per point (``max_steps``), and so the largest resolution ``steps``:
+#: a marched point takes on the order of ``steps`` steps (0.2 to a few times it on random
+#: draws; a few points are decided without a march), so a resolution beyond every budget
+#: can give no answer, only BUDGET_EXHAUSTED with e = sqrt(2 H).
+MAX_STEP_BUDGET = 2 ** _BUDGET_POWER
+
 _INTEGRATOR_OPTIONS = (
     Option("tol", None, lambda v: _is_number(v) and v > 0,
            "a number > 0 (the largest abs error of e wanted: the resolution comes from the "
            "integrator's calibrated error model, and points above it are refined)"),
-    Option("steps", 96.0, lambda v: _is_number(v) and v >= 2,
-           "a number >= 2 (steps per half period of the stiffest linearised motion)"),
+    Option("steps", 96.0, lambda v: _is_number(v) and 2 <= v <= MAX_STEP_BUDGET,
+           f"a number in [2, 2**{_BUDGET_POWER}] (steps per half period of the stiffest "
+           "linearised motion; a march takes about as many, and no step budget is larger)"),
     Option("rest_tol", 1e-8, lambda v: _is_number(v) and v > 0,
            "a number > 0 (rest criterion of the report, Sec. 3)"),
-    # n_steps (FIELDS, int32) exceeds max_steps by a few event-refinement steps at most:
-    # the bound keeps it exact, far from 2**31.
-    Option("max_steps", 200_000, lambda v: _is_number(v) and 1 <= v <= 2 ** 30
+    Option("max_steps", 200_000, lambda v: _is_number(v) and 1 <= v <= MAX_STEP_BUDGET
            and float(v).is_integer(),
-           "an integer in [1, 2**30] (step budget per point, every march included)"),
+           f"an integer in [1, 2**{_BUDGET_POWER}] (step budget per point, every march "
+           "included)"),
     Option("refine", True, lambda v: isinstance(v, (bool, np.bool_)),
            "true or false (check points whose error indicator is above the target against "
            "a companion march and march them again, finer; false: one fixed-step march)"),

@@ -29,7 +29,8 @@ lattice four times finer, not a proof. :func:`lookup` is the one-call form.
 
 Owns: interpolation of scene datasets, the held-back check and the export formats. May
 import: :mod:`sweep.api`, :mod:`sweep.model`, :mod:`sweep.registry`, :mod:`sweep._arrays`,
-numpy; scipy and xarray inside the functions (``import sweep`` stays light). Floor 3.
+:mod:`sweep.store` (:func:`~sweep.store.open_dataset`, which opens a file), numpy; scipy
+inside the functions (``import sweep`` stays light). Floor 3.
 """
 from __future__ import annotations
 
@@ -42,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from sweep import api, registry
+from sweep import api, registry, store
 from sweep._arrays import check_broadcast
 from sweep.model import scale
 
@@ -56,10 +57,8 @@ _MATERIAL_VARIABLES = ("m", "k", "gamma0", "alpha", "beta")
 
 
 def _open(dataset: Any) -> Any:
-    import xarray as xr
-
     if isinstance(dataset, (str, os.PathLike)):
-        with xr.open_dataset(dataset) as ds:
+        with store.open_dataset(dataset) as ds:
             return ds.load()
     return dataset
 

@@ -283,6 +283,18 @@ def test_a_closed_stdout_in_process_returns_quietly(monkeypatch, capsys, tmp_pat
     (["report", "paper", "--n-crit", "0"], "--n-crit"),
     (["report", "paper", "--steps", "0"], "--steps"),
     (["report", "paper", "--steps", "nan"], "--steps"),
+    # Below the integrator's 2 (was "unexpected ValueError", exit 1), beyond every budget
+    (["report", "paper", "--steps", "1"], "--steps"),
+    (["report", "paper", "--steps", "1e300"], "--steps"),
+    (["report", "speed", "--ref-steps", "3"], "--ref-steps"),    # its half, 1.5, is < 2
+    (["report", "speed", "--ref-steps", "1e300"], "--ref-steps"),
+    # Counts of points past what numpy can hold: "unexpected ValueError: Maximum allowed
+    # size exceeded" (--n-validate: OverflowError, after minutes of judging)
+    (["report", "paper", "--n-gamma", "1" + "0" * 30], "--n-gamma"),
+    (["report", "paper", "--n-crit", "1" + "0" * 30], "--n-crit"),
+    (["report", "speed", "--n-points", "1" + "0" * 30], "--n-points"),
+    (["report", "error-model", "--sub", "1" + "0" * 30], "--sub"),
+    (["report", "error-model", "--n-validate", "1" + "0" * 30], "--n-validate"),
     (["report", "error-model", "--sub", "0"], "--sub"),
     (["report", "error-model", "--n-validate", "-1"], "--n-validate"),
     (["report", "speed", "--seed", "-3"], "--seed"),
@@ -299,3 +311,32 @@ def test_report_numbers_out_of_range_are_usage_errors(capsys, argv, bad):
     err = capsys.readouterr().err
     assert info.value.code == 2
     assert err.count("\n") == 1 and f"argument {bad}: must be" in err and argv[-1] in err
+
+
+@pytest.mark.parametrize("command", ["run", "validate"])
+@pytest.mark.parametrize("size", ["inf", "1e400", "nan", "0.5"])
+def test_a_size_out_of_range_is_a_usage_error(cfg, capsys, command, size):
+    # QA: --max-size inf (or 1e400, past a double) ended in an OverflowError traceback from
+    # int(inf); 0.5 became a limit of 0 bytes that refused every design.
+    with pytest.raises(SystemExit) as info:
+        cli.main([command, str(cfg), "--max-size", size])
+    err = capsys.readouterr().err
+    assert info.value.code == 2
+    assert err.count("\n") == 1 and "argument --max-size: must be a size" in err
+    assert repr(size) in err
+
+
+@pytest.mark.parametrize("content", [b"not a dataset\n", bytes(range(256)) * 4])
+@pytest.mark.parametrize("command", [["export", "{}", "--csv"], ["report", "accuracy", "{}"],
+                                     ["example", "bounce", "--cor", "lookup", "--table", "{}"],
+                                     ["info", "{}"]])
+def test_a_file_that_is_not_netcdf_is_one_line(tmp_path, capsys, monkeypatch, content,
+                                               command):
+    # QA: export, report accuracy and example bounce printed xarray's three lines about IO
+    # backends, with URLs; all of them open a file by sweep.store.open_dataset now.
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "x.nc").write_bytes(content)
+    assert cli.main([a.format("x.nc") for a in command]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.endswith("error: cannot read x.nc: not a netCDF file\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.nc"]     # nothing written

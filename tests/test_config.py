@@ -191,7 +191,11 @@ def test_doe_needs_a_sampled_axis_and_lhs_size_limit():
 
 
 @pytest.mark.parametrize("extra, expected", [
-    ("[integrator]\nsteps = 1", ["integrator.steps", ">= 2", "1"]),
+    ("[integrator]\nsteps = 1", ["integrator.steps", "[2, 2**30]", "1"]),
+    # QA: accepted, every point ended BUDGET_EXHAUSTED with e = 1 and the run exited 0
+    ("[integrator]\nsteps = 1e300", ["integrator.steps", "[2, 2**30]", "1e+300"]),
+    ("[integrator]\nsteps = 9223372036854775807",
+     ["integrator.steps", "[2, 2**30]", "9223372036854775807"]),
     ("[integrator]\nrest_tol = 0.0", ["integrator.rest_tol", "> 0"]),
     ("[integrator]\nmax_steps = 10.5", ["integrator.max_steps", "10.5"]),
     ("[integrator]\nmax_step = 10", ["integrator.max_step", "did you mean 'max_steps'"]),
@@ -200,6 +204,7 @@ def test_doe_needs_a_sampled_axis_and_lhs_size_limit():
     ("[options.ord9]\nn = 21", ["options.ord9", "unknown method"]),
     ("[options.ord2_approx]\nn = 21", ["options.ord2_approx", "does not compute", "ord1"]),
     ("[run]\nchunk_size = 0", ["run.chunk_size", "from 1 to", "0"]),
+    ("[run]\nchunk_size = 9223372036854775808", ["run.chunk_size", "9223372036854775808"]),
 ])
 def test_other_table_errors(extra, expected):
     msg = _err(GRID + extra)

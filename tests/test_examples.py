@@ -75,6 +75,8 @@ def test_cli_bounce_with_auto(tmp_path, capsys):
     (["--table", "t.nc"], "argument --table: applies to --cor lookup only, got 't.nc'"),
     (["--cor", "lookup", "--v-stop", "10"],
      "argument --v-stop: must be < the first impact speed 4.42945 m/s"),  # sqrt(2 9.81 1)
+    # QA scan: finite, but sqrt(2 g h0) is not ("v0 must be finite, got inf", exit 1)
+    (["--height", "1e308"], "argument --height: h0 = 1e+308 m under g = 9.81 m/s^2"),
 ])
 def test_cli_bounce_refuses_bad_options_in_one_line_naming_them(tmp_path, capsys, extra,
                                                                 expected):

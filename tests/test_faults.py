@@ -749,3 +749,19 @@ def test_signals_wait_for_the_end_of_the_publication():
     finally:
         signal.signal(signal.SIGTERM, previous)
     assert reached
+
+
+@pytest.mark.parametrize("through", ["argument", "config"])
+def test_a_chunk_size_past_the_limit_is_refused_before_the_run(tmp_path, through):
+    # QA scan: sweep.run(chunk_size=2**63), or run.chunk_size = 2**63 (tomllib reads integers
+    # of any size), computed every point, then failed on the file's int64 attribute.
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID if through == "argument"
+                   else GRID.replace("chunk_size = 10\n", "chunk_size = 9223372036854775808\n"))
+    kwargs = {"chunk_size": 2 ** 63} if through == "argument" else {}
+    error = runner.RunError if through == "argument" else config.ConfigError
+    rule = f"from 1 to {limits.MAX_CHUNK_SIZE:,}, got 9223372036854775808"
+    with pytest.raises(error, match=r"chunk.size.*" + rule):
+        runner.run(cfg, tmp_path / "out.nc", quiet=True, **kwargs)
+    assert not (tmp_path / "out.nc").exists()
+    assert not (tmp_path / "out.nc.partial").exists()

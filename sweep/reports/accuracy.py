@@ -40,7 +40,8 @@ Points whose numerical computation ran out of budget or was invalid are excluded
 region and counted in the ``excluded`` column.
 
 May import: numpy, xarray (lazily), :mod:`sweep.model`, :mod:`sweep.critical`,
-:mod:`sweep.api` and :mod:`sweep.reports.common`; matplotlib lazily,
+:mod:`sweep.api`, :mod:`sweep.store` (:func:`~sweep.store.open_dataset`) and
+:mod:`sweep.reports.common`; matplotlib lazily,
 after :func:`sweep.reports.common.use_agg` has set its backend.
 """
 from __future__ import annotations
@@ -53,6 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sweep import store
 from sweep.model import Status
 from sweep.reports.common import use_agg, write_table
 
@@ -392,15 +394,21 @@ def accuracy_report(path: str | os.PathLike, out: str | os.PathLike | None = Non
     dict
         ``out`` (Path), ``files`` (list of Path), ``rows`` (the table, see
         :func:`region_table`), ``markdown``.
-    """
-    import xarray as xr
 
+    Raises
+    ------
+    OSError
+        ``path`` cannot be read or is not netCDF (:func:`sweep.store.open_dataset`).
+    ValueError
+        The dataset holds no approximation and its error, or not ``methods``.
+    """
     path = Path(path)
-    out = Path(out) if out is not None else path.with_name(path.stem + "_accuracy")
-    out.mkdir(parents=True, exist_ok=True)
-    with xr.open_dataset(path) as ds:
+    with store.open_dataset(path) as ds:
         data = load_errors(ds)
         title = str(ds.attrs.get("title", path.name))
+    # after the dataset was read: a file that is none leaves no empty directory behind
+    out = Path(out) if out is not None else path.with_name(path.stem + "_accuracy")
+    out.mkdir(parents=True, exist_ok=True)
     if methods is not None:
         unknown = [m for m in methods if m not in data["methods"]]
         if unknown:

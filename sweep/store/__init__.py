@@ -37,7 +37,8 @@ Modules, one job each:
     :class:`PartialStore` (manifest, verified chunk files), :class:`OutputLock`,
     :class:`ResumeError`, :class:`LockError`.
 :mod:`~sweep.store.summary`
-    :func:`summarize` (``sweep info``), :func:`read_global_attrs`, :func:`check_readable`.
+    :func:`summarize` (``sweep info``), :func:`read_global_attrs`, :func:`check_readable`,
+    :func:`open_dataset` (every reader of a dataset the user names).
 
 This package re-exports their public names (``from sweep import store; store.X``). It is
 floor 1: it may import numpy, netCDF4, xarray (lazily, in :mod:`~sweep.store.memory`) and
@@ -57,7 +58,7 @@ from sweep.store.netcdf import (CHUNK_CACHE_BYTES, COMPLEVEL, STORAGE_CHUNK, SUF
 from sweep.store.partial import (CHUNK_FORMAT, MANIFEST_FORMAT, LockError, OutputLock,
                                  PartialStore, ResumeError, lock_path, partial_bytes,
                                  partial_dir, remove_untrusted)
-from sweep.store.summary import check_readable, read_global_attrs, summarize
+from sweep.store.summary import check_readable, open_dataset, read_global_attrs, summarize
 
 __all__ = [
     "Layout", "Writer", "variable_spec", "coordinate_attrs", "PartialStore", "ResumeError",
@@ -65,5 +66,5 @@ __all__ = [
     "partial_dir", "MANIFEST_FORMAT", "REPORT", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK",
     "COMPLEVEL", "SUFFIXES", "CHUNK_FORMAT", "LockError", "OutputLock", "lock_path",
     "partial_bytes", "remove_untrusted", "CONVENTIONS", "SPACINGS", "index_dtype",
-    "law_units_attrs", "MATERIAL_NAME", "check_readable",
+    "law_units_attrs", "MATERIAL_NAME", "check_readable", "open_dataset",
 ]

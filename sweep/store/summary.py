@@ -1,13 +1,14 @@
 """Reading a finished dataset back: the ``sweep info`` summary and the global attributes.
 
 Owns :func:`summarize` (dimensions, coordinates, variables with summary statistics and
-settings, read in bounded pieces so a file of any size can be described) and
+settings, read in bounded pieces so a file of any size can be described),
 :func:`read_global_attrs` and :func:`check_readable` (how the runner recognises an
-existing output, and proves it intact).
+existing output, and proves it intact) and :func:`open_dataset` (how every reader of a
+dataset given by the user opens it: export, lookup tables, the accuracy report).
 
-May import: numpy, netCDF4, the store's own :mod:`~sweep.store.layout` and
-:mod:`~sweep.store.metadata`, and :mod:`sweep._format` (floor 0). Nothing of numba, the
-kernels or any floor above the store.
+May import: numpy, netCDF4, xarray (inside :func:`open_dataset`), the store's own
+:mod:`~sweep.store.layout` and :mod:`~sweep.store.metadata`, and :mod:`sweep._format`
+(floor 0). Nothing of numba, the kernels or any floor above the store.
 """
 from __future__ import annotations
 
@@ -25,7 +26,12 @@ from sweep._format import count
 from sweep.store.layout import flat_blocks
 from sweep.store.metadata import variable_spec
 
-__all__ = ["summarize", "read_global_attrs", "check_readable"]
+__all__ = ["summarize", "read_global_attrs", "check_readable", "open_dataset"]
+
+#: How a netCDF file begins: classic (CDF1, CDF2, CDF5) or netCDF-4, which is HDF5 (whose
+#: signature may also follow a user block of 512 bytes times a power of two).
+_CLASSIC_MAGIC = (b"CDF\x01", b"CDF\x02", b"CDF\x05")
+_HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 
 #: Global attributes listed under "settings" by :func:`summarize` (prefixes).
 _SETTINGS = ("integrator_", "options_", "design", "chunk_size", "n_points", "sweep_version",
@@ -47,6 +53,72 @@ def _reading(path: str | os.PathLike) -> Iterator[None]:
         yield
     except RuntimeError as exc:
         raise OSError(errno.EIO, str(exc), os.fspath(path)) from exc
+
+
+def _looks_like_netcdf(path: str | os.PathLike) -> bool:
+    """The file begins as a netCDF file does (classic or HDF5 signature)."""
+    try:
+        with open(path, "rb") as f:
+            if f.read(4) in _CLASSIC_MAGIC:
+                return True
+            offset, size = 0, os.fstat(f.fileno()).st_size
+            while offset + len(_HDF5_MAGIC) <= size:
+                f.seek(offset)
+                if f.read(len(_HDF5_MAGIC)) == _HDF5_MAGIC:
+                    return True
+                offset = 512 if offset == 0 else 2 * offset
+    except OSError:         # a directory, or unreadable: no netCDF file either way
+        pass
+    return False
+
+
+def _read_error(path: str | os.PathLike, exc: OSError) -> OSError:
+    """``exc`` as one line a user can read: the file named as given (xarray names it by its
+    absolute path), and "not a netCDF file" where the library failed (a negative errno) on
+    a file without a netCDF signature: it says "Unknown file format" or, depending on what
+    it read before, "HDF error"."""
+    cause = exc.strerror or str(exc)
+    if exc.errno is not None and exc.errno < 0 and not _looks_like_netcdf(path):
+        cause = "not a netCDF file"
+    return OSError(exc.errno, cause, os.fspath(path))
+
+
+def _open_nc(path: str | os.PathLike) -> netCDF4.Dataset:
+    try:
+        return netCDF4.Dataset(path, "r")
+    except OSError as exc:
+        raise _read_error(path, exc) from None
+
+
+def open_dataset(path: str | os.PathLike) -> Any:
+    """Open a netCDF dataset for reading, lazily, as ``xarray.open_dataset`` does.
+
+    The one place a dataset the user names is opened: a file that is not netCDF is
+    refused in one line (xarray's own message spans three, with URLs about IO backends).
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    xarray.Dataset
+        Open on the file: close it, or use it in a ``with`` block.
+
+    Raises
+    ------
+    OSError
+        The file cannot be read, or is not netCDF: ``filename`` is ``path`` as given,
+        ``strerror`` the cause (``"not a netCDF file"``).
+    """
+    import xarray as xr
+
+    try:
+        # netcdf4, not xarray's guess among backends: the files are netCDF (4 or classic),
+        # and the library's own error tells a non-netCDF file from a missing one.
+        return xr.open_dataset(path, engine="netcdf4")
+    except OSError as exc:
+        raise _read_error(path, exc) from None
 
 
 def read_global_attrs(path: str | os.PathLike) -> dict[str, Any] | None:
@@ -85,7 +157,7 @@ def check_readable(path: str | os.PathLike) -> None:
     OSError
         The file cannot be opened or a value cannot be read; ``filename`` is ``path``.
     """
-    with _reading(path), netCDF4.Dataset(path, "r") as nc:
+    with _reading(path), _open_nc(path) as nc:
         nc.set_auto_maskandscale(False)
         for var in nc.variables.values():
             for _ in _iter_flat(var, var.shape):
@@ -123,7 +195,7 @@ def summarize(path: str | os.PathLike) -> str:
         If it is a netCDF file but not a sweep output.
     """
     lines = []
-    with _reading(path), netCDF4.Dataset(path, "r") as nc:
+    with _reading(path), _open_nc(path) as nc:
         nc.set_auto_maskandscale(False)
         attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
         _require_sweep_output(path, attrs)
