@@ -482,8 +482,11 @@ _INTEGRATOR_OPTIONS = (
     Option("steps", 96.0, lambda v: _is_number(v) and 2 <= v <= MAX_STEP_BUDGET,
            f"a number in [2, 2**{_BUDGET_POWER}] (steps per half period of the stiffest "
            "linearised motion; a march takes about as many, and no step budget is larger)"),
-    Option("rest_tol", 1e-8, lambda v: _is_number(v) and v > 0,
-           "a number > 0 (rest criterion of the report, Sec. 3)"),
+    # A scaled state is in units of the impact (u'(0) = 1): from rest_tol = 1 on, every
+    # loaded point is "at rest" before it moves, a silent e = 0.
+    Option("rest_tol", 1e-8, lambda v: _is_number(v) and 0 < v < 1,
+           "a number in (0, 1) (rest criterion of the report, Sec. 3, in units of the "
+           "impact speed: max(|u - u-bar|, |v|) < rest_tol ends a point at rest, e = 0)"),
     Option("max_steps", 200_000, lambda v: _is_number(v) and 1 <= v <= MAX_STEP_BUDGET
            and float(v).is_integer(),
            f"an integer in [1, 2**{_BUDGET_POWER}] (step budget per point, every march "

@@ -55,6 +55,7 @@ def test_invalid_points_do_not_spoil_neighbours():
 
 @pytest.mark.parametrize("kwargs, name", [
     (dict(steps=0), "steps"), (dict(steps=np.nan), "steps"), (dict(rest_tol=0.0), "rest_tol"),
+    (dict(rest_tol=1.0), "rest_tol"),
     # beyond every step budget (QA: accepted, every point BUDGET_EXHAUSTED with e = 1)
     (dict(steps=1e300), r"steps must be a number in \[2, 2\*\*30\].*got 1e\+300"),
     (dict(steps=2 ** 30 + 1), "steps"),
