@@ -102,6 +102,7 @@ def _number_above_zero(unit="", finite=True):
 
 
 _finite_positive = _number_above_zero
+_positive_float = _number_above_zero(finite=False)
 
 
 def _resolution(also_half=False):
@@ -122,7 +123,6 @@ def _resolution(also_half=False):
             raise argparse.ArgumentTypeError(f"must be {option.rule}{half}, got {text!r}")
         return value
     return convert
-_positive_float = _number_above_zero(finite=False)
 
 
 _SIZE_UNITS = {"": 1, "k": 10 ** 3, "m": 10 ** 6, "g": 10 ** 9, "t": 10 ** 12, "p": 10 ** 15}
