@@ -66,7 +66,7 @@ def _int_at_least(low, high=None):
             value = int(text)
         except ValueError:
             value = low - 1
-        if not low <= value <= (value if high is None else high):
+        if not (low <= value and (high is None or value <= high)):
             raise argparse.ArgumentTypeError(f"must be an integer {rule}, got {text!r}")
         return value
     return convert

@@ -133,7 +133,7 @@ def read_global_attrs(path: str | os.PathLike) -> dict[str, Any] | None:
     dict or None
     """
     try:
-        with _reading(path), netCDF4.Dataset(path, "r") as nc:
+        with _reading(path), _open_nc(path) as nc:
             return {k: nc.getncattr(k) for k in nc.ncattrs()}
     except OSError:
         return None

@@ -53,6 +53,18 @@ class Limits:
     max_chunks: int = limits.MAX_CHUNKS
 
 
+def _at_nearest(directory: str | os.PathLike, measure: Callable[[Path], Any]) -> Any:
+    """``measure`` of the nearest existing ancestor of ``directory`` (itself included: the
+    output's directory may not exist yet); None if none can be measured."""
+    path = Path(directory).absolute()
+    for candidate in (path, *path.parents):
+        try:
+            return measure(candidate)
+        except OSError:
+            continue
+    return None
+
+
 def free_disk(directory: str | os.PathLike | None) -> int | None:
     """Free space available to this user where ``directory`` is or would be [bytes].
 
@@ -61,27 +73,17 @@ def free_disk(directory: str | os.PathLike | None) -> int | None:
     """
     if directory is None:
         return None
-    path = Path(directory).absolute()
-    for candidate in (path, *path.parents):
-        try:
-            return shutil.disk_usage(candidate).free
-        except OSError:
-            continue
-    return None
+    return _at_nearest(directory, lambda p: shutil.disk_usage(p).free)
 
 
 def free_inodes(directory: str | os.PathLike) -> int | None:
     """Files that can still be created where ``directory`` is or would be (as
     :func:`free_disk`); None where the file system does not count them (it reports 0
     inodes in all) or cannot be asked."""
-    path = Path(directory).absolute()
-    for candidate in (path, *path.parents):
-        try:
-            st = os.statvfs(candidate)
-        except (OSError, AttributeError):  # AttributeError: no statvfs (Windows)
-            continue
-        return st.f_favail if st.f_files else None
-    return None
+    if not hasattr(os, "statvfs"):  # Windows
+        return None
+    st = _at_nearest(directory, os.statvfs)
+    return st.f_favail if st is not None and st.f_files else None
 
 
 @dataclasses.dataclass(frozen=True)
