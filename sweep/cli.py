@@ -419,10 +419,15 @@ def _add_speed_command(sub, models):
 
 
 def _cmd_error_model(args):
-    from sweep.reports.error_model import error_model_report
+    from sweep.reports import error_model as em
 
-    res = error_model_report(args.out or None, sub=args.sub, n_validate=args.n_validate,
-                             progress=not args.quiet)
+    for option, value, points in (("--sub", args.sub, em.judged_points(args.sub)),
+                                  ("--n-validate", args.n_validate, args.n_validate)):
+        why = em.memory_refusal(points)
+        if why is not None:  # refused before the build, not hours into it
+            args.usage_error(f"argument {option}: must fit in memory, got {value}: {why}")
+    res = em.error_model_report(args.out or None, sub=args.sub, n_validate=args.n_validate,
+                                progress=not args.quiet)
     print(res["markdown"])
     return _print_files(res, "files:")
 
@@ -438,11 +443,12 @@ def _add_error_model_command(sub):
     p.add_argument("--out", metavar="FILE.npz", default=None,
                    help="where to write the model (default: the file the package ships)")
     p.add_argument("--sub", type=_points(), default=2, metavar="N",
-                   help="samples per cell edge (default 2)")
+                   help="samples per cell edge (default 2: 166,026 points judged, about a "
+                        "minute; the points grow as N^2 and are all held in memory)")
     p.add_argument("--n-validate", type=_points(0), default=20000, metavar="N",
                    help="random points of the validation (default 20000; 0: none)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
-    p.set_defaults(func=_cmd_error_model)
+    p.set_defaults(func=_cmd_error_model, usage_error=p.error)
 
 
 def add_report_commands(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:

@@ -121,3 +121,37 @@ def test_an_option_given_as_none_is_not_given():
                                     steps=None), e)
     assert np.array_equal(sweep.cor(1.5, 1.5, gamma, 1.0, method="auto", tol=None),
                           sweep.cor(1.5, 1.5, gamma, 1.0, method="auto"))
+
+
+@pytest.mark.parametrize("sub", [1, 2, 5])
+def test_judged_points_counts_the_judges_samples(sub):
+    # The memory check must count what the build judges: every node pair times the samples
+    # of both axes, each axis 0, half its first edge, and every edge with sub - 1 points
+    # between neighbours.
+    def samples(edges):
+        inner = [np.geomspace(a, b, sub + 1)[:-1] for a, b in zip(edges[1:-1], edges[2:])]
+        return 2 + sum(x.size for x in inner) + 1
+
+    expected = (len(error_model.ALPHA_NODES) * len(error_model.BETA_NODES)
+                * samples(error_model.GAMMA_EDGES) * samples(error_model.GTILDE_EDGES))
+    assert error_model.judged_points(sub) == expected
+
+
+@pytest.mark.parametrize("sub, n_validate, bad", [(3, 0, "sub=3"), (1, 10**6, "n_validate=")])
+def test_an_error_model_beyond_memory_is_refused_before_anything_runs(
+        monkeypatch, tmp_path, sub, n_validate, bad):
+    # A --sub of about 50 judged for hours and was then killed for memory (numpy only
+    # refuses an array at once when it is past all memory).
+    memory = error_model.judged_points(2) * error_model.BYTES_PER_POINT
+    monkeypatch.setattr(error_model, "physical_memory", lambda: memory)
+
+    def no_judging(*args, **kwargs):
+        raise AssertionError("judged before the memory check")
+
+    monkeypatch.setattr(error_model.api, "integrate", no_judging)
+    monkeypatch.setattr(error_model.api, "cor", no_judging)
+    with pytest.raises(ValueError, match=bad) as info:
+        error_model.error_model_report(tmp_path / "m.npz", sub=sub, n_validate=n_validate,
+                                       progress=False)
+    assert "\n" not in str(info.value) and "in memory" in str(info.value)
+    assert not (tmp_path / "m.npz").exists()

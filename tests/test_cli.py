@@ -313,6 +313,23 @@ def test_report_numbers_out_of_range_are_usage_errors(capsys, argv, bad):
     assert err.count("\n") == 1 and f"argument {bad}: must be" in err and argv[-1] in err
 
 
+@pytest.mark.parametrize("option, value", [("--sub", "3"), ("--n-validate", "1000000")])
+def test_an_error_model_beyond_memory_is_a_usage_error(monkeypatch, capsys, tmp_path, option,
+                                                        value):
+    # Within the count limit but past this machine's memory: refused before the build (a
+    # --sub of about 50 judged for hours, then the report was killed).
+    from sweep.reports import error_model
+
+    memory = error_model.judged_points(2) * error_model.BYTES_PER_POINT
+    monkeypatch.setattr(error_model, "physical_memory", lambda: memory)
+    out = tmp_path / "m.npz"
+    with pytest.raises(SystemExit) as info:
+        cli.main(["report", "error-model", "--out", str(out), "--sub", "1", option, value])
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and not out.exists()
+    assert err.count("\n") == 1 and f"argument {option}: must fit in memory, got {value}" in err
+
+
 @pytest.mark.parametrize("command", ["run", "validate"])
 @pytest.mark.parametrize("size", ["inf", "1e400", "nan", "0.5"])
 def test_a_size_out_of_range_is_a_usage_error(cfg, capsys, command, size):

@@ -25,8 +25,13 @@ random points in and out of the model, at nodes and between them. The shipped fi
 ``sweep/data/error_model.npz`` is rebuilt by ``sweep report error-model`` (about a minute on
 2 cores), which writes the validation table next to it.
 
+Every judged point is held in memory (about :data:`BYTES_PER_POINT` each): a ``sub`` or
+``n_validate`` whose points would not fit in this machine's memory is refused before
+anything runs (:func:`judged_points`), not after hours of judging.
+
 Floor 5: may import :mod:`sweep.api`, :mod:`sweep.auto`, :mod:`sweep.registry`,
-:mod:`sweep.reports.common`, numpy and scipy.
+:mod:`sweep.reports.common`, :func:`sweep.sweeps.preflight.physical_memory`, numpy and
+scipy.
 """
 from __future__ import annotations
 
@@ -38,14 +43,17 @@ from typing import Any
 import numpy as np
 
 from sweep import api, auto, registry
+from sweep._format import format_bytes
 from sweep._version import __version__
 from sweep.registry import Status
 from sweep.reports.common import (format_value, log_progress, machine_description,
                                   machine_line, write_table)
+from sweep.sweeps.preflight import physical_memory
 
 __all__ = ["build_error_model", "validate_error_model", "error_model_report", "random_points",
-           "summary_line", "ALPHA_NODES",
-           "BETA_NODES", "GAMMA_EDGES", "GTILDE_EDGES", "JUDGE_STEPS", "SAFETY", "FLOOR"]
+           "summary_line", "judged_points", "memory_refusal", "ALPHA_NODES",
+           "BETA_NODES", "GAMMA_EDGES", "GTILDE_EDGES", "JUDGE_STEPS", "SAFETY", "FLOOR",
+           "BYTES_PER_POINT"]
 
 #: Exponent nodes: every named law of the report (Table 1) is a node pair.
 ALPHA_NODES = (1.0, 1.25, 1.5, 2.0, 2.5, 3.0)
@@ -60,6 +68,35 @@ SAFETY = 3.0
 FLOOR = 1e-10
 #: Cells each side of a collapse of e to 0 without a bound, at and between exponent nodes.
 DILATE_NODE, DILATE_BETWEEN = 1, 2
+#: Peak memory per judged point [bytes], rounded up: the growth of the peak resident set of
+#: ``sweep report error-model`` with the points, 110-155 B between ``--sub`` 1, 3 and 6 and
+#: 115 B per validation point (``/usr/bin/time -f %M``, 2026-12-04).
+BYTES_PER_POINT = 200
+
+
+def judged_points(sub: int) -> int:
+    """Points the judge computes for ``sub`` samples per cell edge (:func:`_samples` of
+    both axes at every exponent node pair)."""
+    per_axis = [(len(edges) - 2) * sub + 3 for edges in (GAMMA_EDGES, GTILDE_EDGES)]
+    return len(ALPHA_NODES) * len(BETA_NODES) * per_axis[0] * per_axis[1]
+
+
+def memory_refusal(points: int) -> str | None:
+    """Why ``points`` judged points, all held at once, would not fit in this machine's
+    physical memory, or None (also where the system does not say how much it has)."""
+    memory, need = physical_memory(), points * BYTES_PER_POINT
+    if memory is None or need <= memory:
+        return None
+    return (f"{points:,} points need about {format_bytes(need)} in memory, more than this "
+            f"machine's {format_bytes(memory)}")
+
+
+def _refuse_beyond_memory(points: int, what: str) -> None:
+    # numpy refuses a huge array at once, but a merely large one is allocated and the
+    # machine swaps, or the report is killed after hours of judging.
+    why = memory_refusal(points)
+    if why is not None:
+        raise ValueError(f"{what}: {why}")
 
 
 def _samples(edges: tuple, sub: int) -> np.ndarray:
@@ -166,7 +203,13 @@ def build_error_model(sub: int = 2, safety: float = SAFETY, floor: float = FLOOR
     Returns
     -------
     sweep.auto.ErrorModel
+
+    Raises
+    ------
+    ValueError
+        If the judged points (:func:`judged_points`) would not fit in this machine's memory.
     """
+    _refuse_beyond_memory(judged_points(sub), f"sub={sub}")
     t0 = time.perf_counter()
     approximations = registry.approximations()
     costs = _measure_costs(approximations)
@@ -221,7 +264,13 @@ def validate_error_model(model: auto.ErrorModel | None = None, n: int = 20000,
     list of dict
         One row per (tol, exponents at nodes or not): points, violations, max error / tol,
         and the share of points each method served.
+
+    Raises
+    ------
+    ValueError
+        If ``n`` points would not fit in this machine's memory.
     """
+    _refuse_beyond_memory(n, f"n={n}")
     model = model or auto.default_model()
     rows = []
     for on_nodes in (True, False):
@@ -261,8 +310,15 @@ def error_model_report(out: str | Path | None = None, sub: int = 2, n_validate: 
     -------
     dict
         ``model`` (the ErrorModel), ``validation`` (rows), ``files`` and ``markdown``.
+
+    Raises
+    ------
+    ValueError
+        If ``sub`` or ``n_validate`` asks for more points than this machine's memory holds;
+        before anything is computed or written.
     """
     out = Path(out) if out is not None else auto.DATA_FILE
+    _refuse_beyond_memory(n_validate, f"n_validate={n_validate}")  # before the build
     model = build_error_model(sub=sub, progress=progress)
     model.save(out)
     auto.default_model.cache_clear()  # the next "auto" call reads the file just written
