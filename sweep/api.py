@@ -268,12 +268,20 @@ def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
         Where a march ran out of its step budget (``Status.BUDGET_EXHAUSTED``): e there is
         only an upper bound, and this function returns no status to say so
         (:func:`cor_with_status` and :func:`integrate` do, without the warning).
+    RuntimeWarning
+        With ``method="numeric"`` and ``tol``, where a point's error estimate ``e_err`` is
+        above ``tol``: near grazing the stick/rebound boundary, or for any point below the
+        rounding floor of e (about 1e-13), the engine cannot vouch for ``tol``, and this
+        function returns no ``e_err`` to say so (:func:`integrate` does, without the
+        warning).
     """
-    e, status = cor_with_status(alpha, beta, gamma, gtilde, method, **options)
+    out = cor_fields(alpha, beta, gamma, gtilde, method, **options)
     m = registry.method(method)
     if m.integrates or m.composite:     # a closed form never runs out of budget: no scan
-        _warn_budget(status)
-    return e
+        _warn_budget(out["status"])
+    if m.integrates and options.get("tol") is not None:
+        _warn_tol(out["e_err"], out["status"], options["tol"])
+    return out["e"]
 
 
 def _warn_budget(status: Any) -> None:
@@ -282,6 +290,18 @@ def _warn_budget(status: Any) -> None:
         warnings.warn(f"{n} point(s) ran out of the step budget (status BUDGET_EXHAUSTED): "
                       "their e is an upper bound, not a value; cor_with_status or integrate "
                       "give the statuses and e_err, max_steps a larger budget",
+                      RuntimeWarning, stacklevel=3)
+
+
+def _warn_tol(e_err: Any, status: Any, tol: float) -> None:
+    # A budget-exhausted point has had its own warning.
+    above = (np.asarray(e_err) > tol) & (np.asarray(status) != Status.BUDGET_EXHAUSTED)
+    n = int(np.count_nonzero(above))
+    if n:
+        worst = float(np.max(np.asarray(e_err)[above]))
+        warnings.warn(f"{n} point(s) may miss tol={tol:g}: their error estimate e_err is above "
+                      f"it (up to {worst:.2g}; near grazing, or below the rounding floor of e, "
+                      "about 1e-13); integrate gives e_err per point",
                       RuntimeWarning, stacklevel=3)
 
 

@@ -227,6 +227,25 @@ def test_cor_warns_where_a_march_ran_out_of_budget():
         sweep.cor(1.5, 1.5, 0.1, 1.0)                 # a finished march: no warning
 
 
+def test_cor_warns_where_it_cannot_vouch_for_tol():
+    """cor returns no e_err: tol = 1e-17 is below half an ulp of any e in [0.5, 1) (2^-54,
+    5.6e-17), so no float64 e is certainly that close to the truth and every point must be
+    flagged (before, cor returned them silently after 25,000 steps each); at tol = 1e-8 on
+    ordinary points none is, and integrate, which returns e_err, never warns."""
+    gamma = np.array([0.01, 0.05, 0.1])
+    with pytest.warns(RuntimeWarning, match=r"3 point\(s\) may miss tol=1e-17") as rec:
+        e = sweep.cor(1.5, 1.5, gamma, 0.1, tol=1e-17)
+    assert len(rec) == 1 and np.all((e >= 0.5) & (e < 1.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sweep.integrate(1.5, 1.5, gamma, 0.1, tol=1e-17)
+        sweep.cor(1.5, 1.5, gamma, 0.1, tol=1e-8)
+    # A point out of budget has its own warning, not a second one about tol.
+    with pytest.warns(RuntimeWarning, match="BUDGET_EXHAUSTED") as rec:
+        sweep.cor(1.5, 1.5, 0.1, 1.0, tol=1e-8, max_steps=20)
+    assert len(rec) == 1
+
+
 def test_gamma_above_1e300_is_outside_the_domain():
     """Beyond 1e300 the damping rate gamma beta u^(beta-1) overflows (gamma = 1.7e308 gave
     e = NaN with BUDGET_EXHAUSTED): the domain stops there, in every method."""
