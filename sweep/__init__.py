@@ -35,6 +35,7 @@ _OWNERS = {
     "critical_gamma": "sweep.critical", "critical_gtilde": "sweep.critical",
     "scale": "sweep.model", "MODELS": "sweep.registry", "Status": "sweep.registry",
     "lookup": "sweep.tables", "run": "sweep.sweeps.dataset",
+    "CaveatWarning": "sweep.sweeps.runner",
 }
 
 __all__ = ["__version__", "MODELS", "Status", "scale", "integrate", "cor", "cor_with_status",
@@ -42,7 +43,7 @@ __all__ = ["__version__", "MODELS", "Status", "scale", "integrate", "cor", "cor_
            "IntegrationResult", "METHODS", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS",
            "DEFAULT_REST_TOL", "APPROXIMATIONS", "coefficients", "coefficients_at_zero",
            "first_order_coefficients", "large_gtilde_coefficient", "SP_C2", "critical_gamma",
-           "critical_gtilde"]
+           "critical_gtilde", "CaveatWarning"]
 
 
 def __getattr__(name: str):

@@ -43,6 +43,7 @@ import math
 import os
 import signal
 import sys
+import warnings
 from pathlib import Path
 
 from sweep._version import __version__
@@ -292,10 +293,17 @@ def _cmd_info(args):
 def _cmd_run(args):
     from sweep.sweeps import runner
 
-    runner.run(args.config, args.output, restart=args.restart, quiet=args.quiet,
-               chunk_size=args.chunk_size, scheduler=args.scheduler, force=args.force,
-               limits=_limits(args), scheduler_timeout=args.scheduler_timeout,
-               progress_interval=args.progress_interval)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", runner.CaveatWarning)
+        runner.run(args.config, args.output, restart=args.restart, quiet=args.quiet,
+                   chunk_size=args.chunk_size, scheduler=args.scheduler, force=args.force,
+                   limits=_limits(args), scheduler_timeout=args.scheduler_timeout,
+                   progress_interval=args.progress_interval)
+    for w in caught:  # the file is complete: its caveats are warnings, even with --quiet
+        if issubclass(w.category, runner.CaveatWarning):
+            _say(f"sweep run: warning: {w.message}")
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     return 0
 
 

@@ -313,6 +313,22 @@ def test_report_numbers_out_of_range_are_usage_errors(capsys, argv, bad):
     assert err.count("\n") == 1 and f"argument {bad}: must be" in err and argv[-1] in err
 
 
+def test_run_caveats_are_one_line_warnings_even_when_quiet(tmp_path, capsys):
+    # The file is complete and exit 0, but its e are upper bounds where the budget ran out:
+    # said on stderr although --quiet silences the progress.
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('[design]\nkind = "grid"\nalpha = 1.5\nbeta = 1.5\ngamma = [0.01, 0.1]\n'
+                   'gtilde = [0.0, 1.0]\n[outputs]\ne = ["numeric"]\n[integrator]\n'
+                   'max_steps = 20\n')
+    assert cli.main(["run", str(cfg), "-o", str(tmp_path / "c.nc"), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert err == ("sweep run: warning: 4 of 4 points ran out of the step budget: their e is "
+                   "an upper bound, not a value (status BUDGET_EXHAUSTED; store status in "
+                   "outputs.fields to see which, or raise integrator.max_steps)\n")
+    assert cli.main(["info", str(tmp_path / "c.nc")]) == 0
+    assert "points_budget_exhausted = 4" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("option, value", [("--sub", "3"), ("--n-validate", "1000000")])
 def test_an_error_model_beyond_memory_is_a_usage_error(monkeypatch, capsys, tmp_path, option,
                                                         value):

@@ -1,4 +1,6 @@
 """Chunked execution, only-requested outputs, resume and determinism (sweep.sweeps.runner)."""
+import warnings
+
 import numba
 import numpy as np
 import pytest
@@ -284,3 +286,61 @@ def test_dask_cluster_gives_the_local_results(tmp_path):
         assert raw.attrs["executor"] == f"dask distributed, scheduler {address}"
         assert "compile_time_s" not in raw.attrs and "numba_num_threads" not in raw.attrs
     xr.testing.assert_identical(opened(tmp_path / "local.nc"), opened(tmp_path / "dask.nc"))
+
+
+CAVEAT_GRID = """
+[design]
+kind = "grid"
+alpha = 1.5
+beta = 1.5
+gamma = {start = 1e-4, stop = 1e-2, num = 6, spacing = "log"}
+gtilde = {start = 1e-3, stop = 0.1, num = 5, spacing = "log"}
+[outputs]
+e = ["numeric"]
+[run]
+chunk_size = 7
+"""
+
+
+def test_points_out_of_budget_are_counted_though_status_is_not_stored(tmp_path,
+                                                                      monkeypatch):
+    # Only e was stored: a budget of 20 steps, which no march at 96 steps per half period
+    # finishes, wrote 30 upper bounds as if they were values, exit 0, nothing said.
+    text = CAVEAT_GRID + "[integrator]\nmax_steps = 20\n"
+    out = tmp_path / "out.nc"
+    with monkeypatch.context() as m:
+        interrupt_after(m, 2)
+        with pytest.raises(KeyboardInterrupt):
+            run(text, out)
+    with pytest.warns(runner.CaveatWarning, match="30 of 30 points ran out of the step "
+                                                  "budget") as caught:
+        res = run(text, out)                    # the resumed chunks' counts are kept too
+    assert res.resumed_chunks == 2 and len(caught) == 1
+    assert res.caveats == {"points_budget_exhausted": 30}
+    with xr.open_dataset(out) as ds:
+        assert "status" not in ds and ds.attrs["points_budget_exhausted"] == 30
+        assert "points_above_tol" not in ds.attrs        # no tol was asked for
+    g = np.geomspace(1e-4, 1e-2, 6)[:, None]
+    r = api.integrate(1.5, 1.5, g, np.geomspace(1e-3, 0.1, 5), max_steps=20)
+    assert np.all(r.status == api.Status.BUDGET_EXHAUSTED)
+
+
+def test_points_whose_estimate_is_above_tol_are_counted(tmp_path):
+    # Every point rebounds with e in [0.5, 1) here, where an ulp is 2^-53: no float64 e is
+    # certainly within 1e-17 of the truth, so every point must count.
+    with pytest.warns(runner.CaveatWarning, match="30 of 30 points may miss integrator.tol"):
+        ds, res = runner.run_in_memory(
+            config.loads(CAVEAT_GRID + "[integrator]\ntol = 1e-17\n"), quiet=True)
+    assert float(ds.e_numeric.min()) >= 0.5 and float(ds.e_numeric.max()) < 1.0
+    assert ds.attrs["points_above_tol"] == 30 and ds.attrs["points_budget_exhausted"] == 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ds, res = runner.run_in_memory(config.loads(CAVEAT_GRID + "[integrator]\ntol = 1e-8\n"),
+                                       quiet=True)
+    assert ds.attrs["points_above_tol"] == 0 and res.caveats["points_above_tol"] == 0
+
+
+def test_closed_forms_alone_have_no_caveat_counts(tmp_path):
+    ds, res = runner.run_in_memory(config.loads(CAVEAT_GRID.replace('["numeric"]',
+                                                                    '["ord1"]')), quiet=True)
+    assert not any(k in ds.attrs for k in store.CAVEAT_ATTRS)

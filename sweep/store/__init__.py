@@ -50,7 +50,7 @@ from __future__ import annotations
 
 from sweep.store.layout import Layout, Writer, flat_blocks
 from sweep.store.memory import MemoryWriter
-from sweep.store.metadata import (CONVENTIONS, MATERIAL_NAME, REPORT, SPACINGS,
+from sweep.store.metadata import (CAVEAT_ATTRS, CONVENTIONS, MATERIAL_NAME, REPORT, SPACINGS,
                                   coordinate_attrs, index_dtype, law_units_attrs,
                                   variable_spec)
 from sweep.store.netcdf import (CHUNK_CACHE_BYTES, COMPLEVEL, STORAGE_CHUNK, SUFFIXES,
@@ -66,5 +66,5 @@ __all__ = [
     "partial_dir", "MANIFEST_FORMAT", "REPORT", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK",
     "COMPLEVEL", "SUFFIXES", "CHUNK_FORMAT", "LockError", "OutputLock", "lock_path",
     "partial_bytes", "remove_untrusted", "CONVENTIONS", "SPACINGS", "index_dtype",
-    "law_units_attrs", "MATERIAL_NAME", "check_readable", "open_dataset",
+    "law_units_attrs", "MATERIAL_NAME", "check_readable", "open_dataset", "CAVEAT_ATTRS",
 ]

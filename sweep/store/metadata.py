@@ -49,11 +49,17 @@ from sweep import registry
 from sweep.registry import REPORT
 
 __all__ = ["REPORT", "CONVENTIONS", "SPACINGS", "variable_spec", "coordinate_attrs",
-           "law_units_attrs", "index_dtype", "MATERIAL_NAME"]
+           "law_units_attrs", "index_dtype", "MATERIAL_NAME", "CAVEAT_ATTRS"]
 
 #: The ``Conventions`` global attribute: the newest CF version the ``cfchecker`` package
 #: (4.1) knows; the files use nothing of later versions.
 CONVENTIONS = "CF-1.8"
+
+#: Global attributes counting the points whose e needs a caveat, whatever the file stores:
+#: points that ran out of the step budget in any method (e there is an upper bound), and
+#: the other points whose error estimate e_err is above the integrator's ``tol`` (written
+#: only where ``tol`` is set). ``status`` and ``e_err`` say which, where stored.
+CAVEAT_ATTRS = ("points_budget_exhausted", "points_above_tol")
 
 #: Values of the ``spacing`` attribute of a grid coordinate.
 SPACINGS = ("linear", "log", "irregular", "single")

@@ -53,8 +53,9 @@ __all__ = ["PartialStore", "ResumeError", "LockError", "OutputLock", "partial_di
 
 #: Format of the manifest; version 2 introduced self-describing, checksummed chunk files.
 MANIFEST_FORMAT = "sweep-partial/2"
-#: Format tag stored in every chunk file's metadata.
-CHUNK_FORMAT = "sweep-chunk/1"
+#: Format tag stored in every chunk file's metadata; version 2 keeps any numbers with a
+#: chunk (its ``tally``), version 1 its two times only (such chunks are recomputed).
+CHUNK_FORMAT = "sweep-chunk/2"
 #: Attempts at taking the lock while its holder is removing the lock file.
 _LOCK_ATTEMPTS = 5
 
@@ -444,7 +445,7 @@ class PartialStore:
         return done
 
     def save_chunk(self, index: int, start: int, stop: int, arrays: Mapping[str, Any],
-                   times: Sequence[float]) -> None:
+                   tally: Sequence[float]) -> None:
         """Save a finished chunk atomically (a crash leaves it absent or complete).
 
         The file records the manifest's hash, the configuration's hash, ``index``, the
@@ -456,20 +457,20 @@ class PartialStore:
             Chunk number and its flat range of points.
         arrays : dict of str -> ndarray
             The chunk's values per stored variable.
-        times : pair of float
-            Wall and kernel time [s] kept with the chunk, so that a resumed run still
-            reports the time the whole dataset took.
+        tally : sequence of float
+            Numbers kept with the chunk (the runner's times and counts), so that a resumed
+            run still reports them for the whole dataset.
         """
         payload = {name: np.asarray(a) for name, a in arrays.items()}
         meta = {"format": CHUNK_FORMAT, "identity": self.identity,
                 "config_sha256": self.manifest.get("config_sha256"), "index": int(index),
                 "start": int(start), "stop": int(stop),
-                "times": [float(t) for t in times], "sha256": _digest(payload)}
+                "tally": [float(t) for t in tally], "sha256": _digest(payload)}
         payload["__meta__"] = np.array(json.dumps(meta))
         _write_atomic(self._chunk_path(index), lambda fh: np.savez(fh, **payload))
 
     def load_chunk(self, index: int, start: int, stop: int
-                   ) -> tuple[dict, tuple[float, float]] | None:
+                   ) -> tuple[dict, tuple[float, ...]] | None:
         """Load and verify a finished chunk; None if it is missing, damaged or foreign.
 
         A rejected chunk is counted in :attr:`rejected` under its reason.
@@ -481,14 +482,14 @@ class PartialStore:
 
         Returns
         -------
-        (dict, (float, float)) or None
-            The arrays by variable name and the chunk's ``times`` (see :meth:`save_chunk`).
+        (dict, tuple of float) or None
+            The arrays by variable name and the chunk's ``tally`` (see :meth:`save_chunk`).
         """
         try:
             with np.load(self._chunk_path(index), allow_pickle=False) as z:
                 data = {k: z[k] for k in z.files}
             meta = json.loads(str(data.pop("__meta__")))
-            times = (float(meta["times"][0]), float(meta["times"][1]))
+            tally = tuple(float(t) for t in meta["tally"])
         except FileNotFoundError:
             return None
         except Exception:  # noqa: BLE001 - zipfile, numpy and json each fail their own way
@@ -502,7 +503,7 @@ class PartialStore:
         if problem is not None:
             self.rejected[problem] += 1
             return None
-        return data, times
+        return data, tally
 
     def discard_chunk(self, index: int) -> None:
         """Delete a saved chunk (no error if it is absent)."""

@@ -24,7 +24,7 @@ import numpy as np
 
 from sweep._format import count
 from sweep.store.layout import flat_blocks
-from sweep.store.metadata import variable_spec
+from sweep.store.metadata import CAVEAT_ATTRS, variable_spec
 
 __all__ = ["summarize", "read_global_attrs", "check_readable", "open_dataset"]
 
@@ -38,7 +38,7 @@ _SETTINGS = ("integrator_", "options_", "design", "chunk_size", "n_points", "swe
              "numba_version", "numpy_version", "run_time", "compute_time",
              "points_per_second", "date_created", "sweep_config_sha256", "sweep_command",
              "compile_time", "kernel_time", "numba_num_threads", "numba_threading_layer",
-             "executor")
+             "executor", *CAVEAT_ATTRS)
 
 
 @contextlib.contextmanager

@@ -72,6 +72,7 @@ import threading
 import time
 import traceback
 import uuid
+import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -88,6 +89,7 @@ from sweep.sweeps import preflight as _preflight_mod
 from sweep.sweeps import progress as _progress_mod
 
 __all__ = ["ComputePlan", "compute_chunk", "run", "run_in_memory", "RunResult", "RunError",
+           "CaveatWarning",
            "default_output", "source_sha256", "preflight", "estimate_rate"]
 
 
@@ -154,17 +156,23 @@ def compute_chunk(plan: ComputePlan, alpha: np.ndarray, beta: np.ndarray, gamma:
         One flat array per variable of ``plan.variables``, in the store's dtype.
     seconds : float
         Time spent inside the api calls (the kernels) [s].
+    caveats : tuple of int
+        Points whose e needs a caveat, whatever is stored
+        (:data:`sweep.store.CAVEAT_ATTRS`).
     """
     t0 = time.perf_counter()
     res = None
+    statuses = []
     if plan.integrate:
         res = api.integrate(alpha, beta, gamma, gtilde, **plan.integrator)
+        statuses.append(res.status)
     approx = {m: api.cor(alpha, beta, gamma, gtilde, method=m, **plan.options.get(m, {}))
               for m in plan.approximations}
     own = {}  # the composite methods' e and fields
     for m in plan.composites:
         out = api.cor_fields(alpha, beta, gamma, gtilde, method=m, **plan.options.get(m, {}))
         approx[m] = out.pop("e")
+        statuses.append(out["status"])
         own.update({name: value for name, value in out.items() if name != "status"})
     seconds = time.perf_counter() - t0
     arrays = {}
@@ -180,7 +188,28 @@ def compute_chunk(plan: ComputePlan, alpha: np.ndarray, beta: np.ndarray, gamma:
             value = own[name] if name in own else getattr(res, name)
         dtype, _ = store.variable_spec(name)
         arrays[name] = np.ascontiguousarray(value, dtype=dtype).reshape(-1)
-    return arrays, seconds
+    return arrays, seconds, _caveats(plan, res, statuses)
+
+
+# Kept with every chunk, written as global attributes and warned of.
+_CAVEATS = store.CAVEAT_ATTRS
+
+
+class CaveatWarning(RuntimeWarning):
+    """A run's file holds points whose e needs a caveat (:data:`sweep.store.CAVEAT_ATTRS`)."""
+
+
+def _caveats(plan, res, statuses):
+    """(points out of step budget in any method, other points whose e_err is above the
+    integrator's ``tol``) of one chunk."""
+    out = np.zeros(np.shape(statuses[0]) if statuses else 0, dtype=bool)
+    for status in statuses:
+        out |= status == registry.Status.BUDGET_EXHAUSTED
+    tol = plan.integrator.get("tol")
+    above = 0
+    if res is not None and tol is not None:
+        above = int(np.count_nonzero((res.e_err > tol) & ~out))
+    return int(np.count_nonzero(out)), above
 
 
 # --------------------------------------------------------------------------- running
@@ -220,6 +249,10 @@ class RunResult:
     compile_seconds : float or None
         Duration of the warm-up call that loaded or compiled the kernels [s] (None: no
         warm-up ran, see the module docstring).
+    caveats : dict of str -> int
+        Points of the whole dataset whose e needs a caveat, by name of
+        :data:`sweep.store.CAVEAT_ATTRS` (resumed chunks included; empty where nothing was
+        computed or resumed).
     """
 
     output: Path | None
@@ -235,6 +268,7 @@ class RunResult:
     committed: bool = False
     cleanup_interrupted: bool = False
     compile_seconds: float | None = None
+    caveats: dict = dataclasses.field(default_factory=dict)
 
     @property
     def points_per_second(self) -> float:
@@ -390,8 +424,9 @@ def _thread_attrs():
 
 def _local_executor(plan, tasks):
     for index, start, stop, points in tasks:
-        arrays, seconds = compute_chunk(plan, *(points[k] for k in _config.PARAMETERS))
-        yield index, start, stop, points, arrays, seconds
+        arrays, seconds, caveats = compute_chunk(plan,
+                                                 *(points[k] for k in _config.PARAMETERS))
+        yield index, start, stop, points, arrays, seconds, caveats
 
 
 def _connect(scheduler, timeout):
@@ -455,10 +490,10 @@ def _dask_executor(plan, tasks, client):
         if not submit_next():
             break
     for fut in futures:
-        arrays, seconds = fut.result()
+        arrays, seconds, caveats = fut.result()
         index, start, stop, points = meta.pop(fut.key)
         fut.release()
-        yield index, start, stop, points, arrays, seconds
+        yield index, start, stop, points, arrays, seconds, caveats
         submit_next()
 
 
@@ -544,14 +579,17 @@ class _Job:
 
 @dataclasses.dataclass
 class _Totals:
-    """Wall and kernel time of every chunk of the dataset, this session's and resumed."""
+    """Wall and kernel time and the caveats' counts (:data:`sweep.store.CAVEAT_ATTRS`) of
+    every chunk of the dataset, this session's and resumed."""
 
     wall: float = 0.0
     kernel: float = 0.0
+    caveats: tuple = (0,) * len(_CAVEATS)
 
-    def add(self, wall, kernel):
+    def add(self, wall, kernel, caveats):
         self.wall += wall
         self.kernel += kernel
+        self.caveats = tuple(a + int(b) for a, b in zip(self.caveats, caveats))
 
 
 def _output_path(output):
@@ -779,7 +817,33 @@ def _report(job, t_start):
     what = f"wrote {job.output}" if job.output is not None else "computed in memory"
     job.log(f"{what}: {count(job.design.size, 'point')} ({result.computed_points:,} "
             f"computed) in {result.wall_seconds:.1f} s, {rate(result.points_per_second)}")
+    _warn_caveats(job)
     return result
+
+
+def _applicable(plan, counts):
+    """The counts of :data:`sweep.store.CAVEAT_ATTRS` that apply to the configuration."""
+    names = [_CAVEATS[0]] if plan.integrate or plan.composites else []
+    if plan.integrate and plan.integrator.get("tol") is not None:
+        names.append(_CAVEATS[1])
+    return {name: int(counts[name]) for name in names}
+
+
+def _warn_caveats(job):
+    """Step 11a: a :class:`CaveatWarning` for each count of
+    :data:`sweep.store.CAVEAT_ATTRS` above 0 (the file records them too; a point's
+    ``status`` and ``e_err`` say which only where stored)."""
+    attrs, n = job.result.caveats, count(job.design.size, "point")
+    if attrs.get(_CAVEATS[0]):
+        warnings.warn(f"{attrs[_CAVEATS[0]]:,} of {n} ran out of the step budget: their e is "
+                      "an upper bound, not a value (status BUDGET_EXHAUSTED; store status in "
+                      "outputs.fields to see which, or raise integrator.max_steps)",
+                      CaveatWarning, stacklevel=4)
+    if attrs.get(_CAVEATS[1]):
+        warnings.warn(f"{attrs[_CAVEATS[1]]:,} of {n} may miss integrator.tol = "
+                      f"{job.plan.integrator['tol']:g}: their error estimate e_err is above "
+                      "it (near grazing, or below e's rounding floor, about 1e-13; store "
+                      "e_err in outputs.fields to see which)", CaveatWarning, stacklevel=4)
 
 
 def _chunk_points(job, start, stop):
@@ -820,9 +884,9 @@ def _tasks(job, partial, done, behind, totals, bar) -> Iterator[tuple]:
         if index in done:
             loaded = partial.load_chunk(index, start, stop)
             if loaded is not None:
-                arrays, (wall, kernel) = loaded
+                arrays, (wall, kernel, *caveats) = loaded
                 behind.write(start, stop, arrays, points)
-                totals.add(wall, kernel)
+                totals.add(wall, kernel, caveats)
                 job.result.resumed_chunks += 1
                 continue
             done.discard(index)
@@ -867,18 +931,19 @@ def _stream_chunks(job, partial, done, behind, quiet, client):
         tasks = _tasks(job, partial, done, behind, totals, bar)
         executor = (_local_executor(job.plan, tasks) if client is None
                     else _dask_executor(job.plan, tasks, client))
-        for index, start, stop, points, arrays, kernel in executor:
+        for index, start, stop, points, arrays, kernel, caveats in executor:
             # A chunk's wall time runs from the end of the previous one's computation
             # (so its own saving and writing count towards the next chunk).
             now = time.perf_counter()
             wall, last = now - last, now
-            partial.save_chunk(index, start, stop, arrays, [wall, kernel])
+            partial.save_chunk(index, start, stop, arrays, [wall, kernel, *caveats])
             behind.write(start, stop, arrays, points)
-            totals.add(wall, kernel)
+            totals.add(wall, kernel, caveats)
             result.computed_points += stop - start
             result.kernel_seconds += kernel
             bar.update(stop - start)
     _log_rejected(job, partial)
+    result.caveats = _applicable(job.plan, dict(zip(_CAVEATS, totals.caveats)))
     return totals
 
 
@@ -934,7 +999,7 @@ def _finish(job, partial, writer, behind, totals, scheduler):
     """Step 6: complete the file (timing attributes), publish it atomically, clean up."""
     behind.drain()
     job.result.chunks = len(job.chunks)
-    writer.set_attrs(_timing_attrs(job, totals, scheduler))
+    writer.set_attrs({**_timing_attrs(job, totals, scheduler), **job.result.caveats})
     writer.close()
     try:
         with _signals_deferred():
@@ -1136,7 +1201,7 @@ def _compute_in_memory(job, quiet, client, scheduler):
     finally:
         behind.shutdown()
     job.result.chunks = len(job.chunks)
-    writer.set_attrs(_timing_attrs(job, totals, client))
+    writer.set_attrs({**_timing_attrs(job, totals, client), **job.result.caveats})
     writer.close()
     return writer
 
