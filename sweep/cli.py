@@ -707,6 +707,16 @@ def _command_name(args: argparse.Namespace) -> str:
     return f"sweep {args.command}" + (f" {sub}" if sub else "")
 
 
+def _closed_streams_to_devnull() -> None:
+    """Python starts without sys.stdout or sys.stderr where that descriptor is closed
+    (``>&-``, ``2>&-``, some daemons): they become os.devnull, so that the messages are
+    dropped as from a stream that failed (a print to a None stderr lands on stdout, and a
+    flush of a None stdout failed a complete run as "unexpected AttributeError")."""
+    for name in ("stdout", "stderr"):
+        if getattr(sys, name) is None:
+            setattr(sys, name, open(os.devnull, "w", encoding="utf-8"))  # noqa: SIM115
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``sweep`` console script.
 
@@ -720,6 +730,7 @@ def main(argv: list[str] | None = None) -> int:
     int
         The exit status.
     """
+    _closed_streams_to_devnull()
     try:
         args = build_parser().parse_args(argv)
     except KeyboardInterrupt:  # during start-up: the parser imports the reports (numba)

@@ -681,6 +681,25 @@ def test_a_failing_stderr_drops_the_messages_not_the_run(tmp_path, reference, st
     assert not store.partial_dir(out).exists()
 
 
+@pytest.mark.parametrize("closed", ["2>&-", ">&-", ">&- 2>&-"])
+def test_a_closed_descriptor_drops_the_messages_not_the_run(tmp_path, reference, closed):
+    # Python starts with sys.stderr (sys.stdout) None where the descriptor is closed: the
+    # run wrote nothing ("unexpected AttributeError: 'NoneType' object has no attribute
+    # 'write'", exit 1), or wrote its file and then failed on flushing stdout.
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    env = dict(os.environ,
+               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    python = f'"{sys.executable}" -m sweep'
+    for command in (f'run "{cfg}" -o "{out}"', f'info "{out}"'):
+        proc = subprocess.run(["bash", "-c", f"{python} {command} {closed}"], env=env,
+                              cwd=tmp_path, timeout=300)
+        assert proc.returncode == 0, (command, closed)
+    xr.testing.assert_equal(opened(out), reference["grid"])
+    assert not store.partial_dir(out).exists()
+
+
 def test_debug_shows_the_traceback(tmp_path, capsys):
     cfg = tmp_path / "c.toml"
     cfg.write_bytes(b"\xff")

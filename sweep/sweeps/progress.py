@@ -42,9 +42,10 @@ class DroppingStream:
         A write or flush failed: nothing more is written.
     """
 
-    def __init__(self, stream: TextIO) -> None:
+    def __init__(self, stream: TextIO | None) -> None:
         self.stream = stream
-        self.failed = False
+        # None: Python started without the file descriptor (``2>&-``, a daemon).
+        self.failed = stream is None
 
     def _attempt(self, method: str, *args: Any) -> None:
         if self.failed:
