@@ -395,6 +395,14 @@ def _write_npz(ds: Any, path: Path, variables: list[str]) -> None:
                  **{v: ds[v].transpose(*SCENE_DIMS).values for v in variables})
 
 
+def _same_file(a: Path, b: Path) -> bool:
+    """``a`` and ``b`` name one file (through links too), or one path where ``a`` is new."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # either is missing: only the same path can be the same file
+        return a.resolve() == b.resolve()
+
+
 def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
            variables: list[str] | None = None) -> Path:
     """Write a scene's table as CSV or NumPy ``.npz``.
@@ -423,10 +431,14 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
     Raises
     ------
     ValueError
-        An unknown format, not a scene dataset, or a variable it does not have (named).
+        An unknown format, not a scene dataset, a variable it does not have (named), or
+        ``path`` the dataset's own file.
     """
-    ds = _open(dataset)
     path = Path(path)
+    if isinstance(dataset, (str, os.PathLike)) and _same_file(path, Path(dataset)):
+        # Written over, the dataset was replaced by its export, exit 0.
+        raise ValueError(f"the output {path} is the dataset itself; give another -o")
+    ds = _open(dataset)
     fmt = fmt or path.suffix.lstrip(".")
     if fmt not in ("csv", "npz"):
         raise ValueError(f"format must be 'csv' or 'npz', got {fmt!r}")

@@ -344,3 +344,15 @@ def test_closed_forms_alone_have_no_caveat_counts(tmp_path):
     ds, res = runner.run_in_memory(config.loads(CAVEAT_GRID.replace('["numeric"]',
                                                                     '["ord1"]')), quiet=True)
     assert not any(k in ds.attrs for k in store.CAVEAT_ATTRS)
+
+
+def test_an_output_that_is_the_configuration_is_refused(tmp_path, monkeypatch):
+    # `sweep run --restart x.nc` (the default output of x.nc is x.nc itself) replaced the
+    # configuration by its output.
+    monkeypatch.chdir(tmp_path)                 # where the default output goes
+    cfg = tmp_path / "x.nc"
+    cfg.write_text(CAVEAT_GRID)
+    for output in (None, cfg, tmp_path / "." / "x.nc"):
+        with pytest.raises(runner.RunError, match="is the configuration file itself"):
+            runner.run(cfg, output, restart=True, quiet=True)
+    assert cfg.read_text() == CAVEAT_GRID and sorted(tmp_path.iterdir()) == [cfg]

@@ -217,3 +217,16 @@ def test_lookup_refuses_strings_and_names_shapes(scene):
     table = tables.Table(scene)
     got = table(np.array([[1.0], [2.0]]), 0.1, ["steel", "bead", "steel"])
     assert got.shape == (2, 3) and got[1, 1] == table(2.0, 0.1, "bead")
+
+
+@pytest.mark.parametrize("fmt", ["--npz", "--csv"])
+def test_export_over_its_own_dataset_is_refused(scene, tmp_path, capsys, fmt):
+    # `sweep export s.nc --npz -o s.nc` replaced the dataset by its export, exit 0.
+    before = scene.read_bytes()
+    link = tmp_path / "link.nc"
+    link.symlink_to(scene)
+    for out in (scene, link):
+        assert main(["export", str(scene), fmt, "-o", str(out), "--no-check"]) == 1
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "is the dataset itself" in err
+    assert scene.read_bytes() == before

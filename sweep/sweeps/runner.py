@@ -627,6 +627,20 @@ def _check_output_path(output):
                        f"included); the file system allows {name_max}")
 
 
+def _check_not_the_config(output, source):
+    """Refuse an output that is the configuration file itself (``sweep run x.nc`` writes
+    x.nc by default): with --restart the run replaced the configuration by its output."""
+    if not source or not output.exists():
+        return
+    try:
+        same = os.path.samefile(output, source)
+    except OSError:  # the source is no file (a string, a dict): nothing to overwrite
+        return
+    if same:
+        raise RunError(f"the output {output} is the configuration file itself; give "
+                       "another -o")
+
+
 def _existing_ancestor(path):
     path = Path(path).absolute()
     return next((p for p in (path, *path.parents) if p.exists()), Path("/"))
@@ -646,6 +660,7 @@ def _prepare(cfg, output, chunk_size, quiet, log, in_memory=False):
     else:
         output = _output_path(output) if output is not None else default_output(cfg)
         _check_output_path(output)
+        _check_not_the_config(output, cfg.source)
     if chunk_size is None:
         chunk_size = cfg.chunk_size
     elif not _config.is_chunk_size(chunk_size):
