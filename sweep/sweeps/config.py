@@ -93,6 +93,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import hashlib
+import itertools
 import json
 import math
 import os
@@ -293,8 +294,9 @@ class GridSpec:
 
     @property
     def exponents(self):
-        """Every (alpha, beta) of the design."""
-        return tuple((a, b) for a in self.axes[0] for b in self.axes[1])
+        """Every (alpha, beta) of the design, one at a time: a grid of 5,000 alphas and
+        5,000 betas made a tuple of 25,000,000 pairs (3.7 GB) before its size was judged."""
+        return itertools.product(self.axes[0], self.axes[1])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -792,11 +794,12 @@ def _off_domain(design, method):
     if pairs is None:
         return (f"method {method!r} is defined for (alpha, beta) = {defined} only, and the "
                 "design samples alpha or beta over a range")
-    off = [(a, b) for a, b in pairs if (a, b) not in models]
-    if not off:
+    # The first pair off the domain comes within len(models) + 1 pairs, if there is one.
+    off = next(((a, b) for a, b in pairs if (a, b) not in models), None)
+    if off is None:
         return None
     return (f"method {method!r} is defined for (alpha, beta) = {defined} only, and the "
-            f"design has (alpha, beta) = ({off[0][0]:g}, {off[0][1]:g})")
+            f"design has (alpha, beta) = ({off[0]:g}, {off[1]:g})")
 
 
 def _check_domains(tab, design, methods, fields):
