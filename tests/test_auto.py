@@ -1,5 +1,6 @@
 """method = "auto": the cheapest method whose validated error is within tol (sweep.auto)."""
 import dataclasses
+import warnings
 
 import numpy as np
 import pytest
@@ -155,3 +156,25 @@ def test_an_error_model_beyond_memory_is_refused_before_anything_runs(
                                        progress=False)
     assert "\n" not in str(info.value) and "in memory" in str(info.value)
     assert not (tmp_path / "m.npz").exists()
+
+
+@pytest.mark.parametrize("point", [
+    (1.0744502738094512, 1.1321252139894746, 3.874728675298467, 6.44268749505823e-12),
+    (1.2095, 1.29876, 10.41064, 3.81e-12)])
+def test_auto_integrates_again_where_its_estimate_is_above_tol(point):
+    # Near grazing the march at tol = 1e-6 left the stick/rebound decision open (e = 0,
+    # e_err 1.3e-5) and auto returned that 0, silently, where the bead leaves with e ~ 1e-6.
+    from reference import dop853_cor
+
+    ref = dop853_cor(*point)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = sweep.cor_fields(*point, method="auto", tol=1e-6)
+    assert out["method_used"] == registry.SERVED_BY["numeric"]
+    assert out["status"] == Status.OK and abs(out["e"] - ref.e) <= 1e-6
+
+
+def test_auto_warns_where_it_cannot_vouch_for_tol():
+    # tol below half an ulp of e (in [0.5, 1)): no estimate can be within it.
+    with pytest.warns(RuntimeWarning, match="integrated by auto may miss tol=1e-17"):
+        sweep.cor(1.5, 1.5, [0.01, 0.05], 0.1, method="auto", tol=1e-17)

@@ -31,9 +31,10 @@ def integrate_on(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde:
 
 def numeric_cor(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: np.ndarray,
                 parallel: bool | None = None, device: str = "cpu",
-                **options) -> tuple[np.ndarray, np.ndarray]:
-    """The ``"numeric"`` method's kernel (:data:`sweep.registry.METHODS`): ``(e, status)``
-    over flat float64 arrays of equal length; ``options`` as for
-    :func:`sweep.kernels.integrator.settings`."""
+                **options) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The ``"numeric"`` method's kernel (:data:`sweep.registry.METHODS`): ``(e, status,
+    {"e_err": e_err})`` over flat float64 arrays of equal length (e_err: what
+    ``"auto"``, which integrates through this kernel, needs to judge its tol); ``options``
+    as for :func:`sweep.kernels.integrator.settings`."""
     out = integrate_on(alpha, beta, gamma, gtilde, settings(**options), parallel, device)
-    return out["e"], out["status"]
+    return out["e"], out["status"], {"e_err": out["e_err"]}
