@@ -21,8 +21,8 @@
 
 Exit status: 0 success; 1 an error: invalid configuration, refused resume or preflight,
 output locked by another run, unreadable dataset, a file system or scheduler fault; 2 bad
-arguments; 130 interrupted (the finished chunks are kept; rerun the same command, less
-``--restart``, to resume); 141 the reader of the output left (``sweep info X | head``:
+arguments; 130 interrupted, 143 terminated by SIGTERM (the finished chunks are kept; rerun
+the same command, less ``--restart``, to resume); 141 the reader of the output left (``sweep info X | head``:
 nothing is said, as for a command killed by SIGPIPE). ``sweep run`` whose stderr fails
 midway (``2>&1 | head``, ``2>/dev/full``) drops its messages and progress from there on
 and finishes: 0 with the file complete, as if it had been ``--quiet``. Every error is one
@@ -655,10 +655,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM (e.g. a batch system's time limit): it unwinds like Ctrl-C, finished chunks
+    already saved and the half-assembled file closed, and exits as a shell reports a
+    command killed by SIGTERM, 128 + 15 (not Ctrl-C's 130)."""
+
+
 def _terminate(signum, frame):
-    # SIGTERM (e.g. a batch system's time limit) unwinds like Ctrl-C: finished chunks are
-    # already saved, and the half-assembled file is closed.
-    raise KeyboardInterrupt
+    raise _Terminated
 
 
 def _stdout_closed() -> int:
@@ -748,6 +752,9 @@ def main(argv: list[str] | None = None) -> int:
         return status
     except BrokenPipeError:  # before Exception: it is an OSError, not the input's fault
         return _stdout_closed()
+    except _Terminated:
+        _say("sweep: terminated")
+        return 143
     except KeyboardInterrupt:
         _say("sweep: interrupted")
         return 130

@@ -784,3 +784,24 @@ def test_a_chunk_size_past_the_limit_is_refused_before_the_run(tmp_path, through
         runner.run(cfg, tmp_path / "out.nc", quiet=True, **kwargs)
     assert not (tmp_path / "out.nc").exists()
     assert not (tmp_path / "out.nc.partial").exists()
+
+
+def test_sigterm_exits_143_keeping_the_finished_chunks(tmp_path, monkeypatch, capsys):
+    # A batch system's SIGTERM unwound like Ctrl-C and exited 130, SIGINT's status; a shell
+    # reports a command killed by SIGTERM as 128 + 15.
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    real, calls = runner.compute_chunk, [0]
+
+    def terminated(*args):
+        calls[0] += 1
+        if calls[0] == 4:                          # the warm-up, then two chunks saved
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(1.0)                        # the handler raises before this ends
+        return real(*args)
+
+    monkeypatch.setattr(runner, "compute_chunk", terminated)
+    assert cli.main(["run", str(cfg), "-o", str(tmp_path / "out.nc"), "--quiet"]) == 143
+    assert capsys.readouterr().err == "sweep: terminated\n"
+    assert len(list((tmp_path / "out.nc.partial").glob("chunk_*.npz"))) == 2
+    assert signal.getsignal(signal.SIGTERM) is not cli._terminate   # restored
