@@ -128,6 +128,8 @@ def _err(text):
     ("num = 5", "num = 5.0", ["design.gamma.num", "5.0"]),
     ("num = 5", "num = true", ["design.gamma.num", "True"]),
     ("num = 5", "num = 0", ["design.gamma.num", "empty range", "0"]),
+    # One point of a range took its start and dropped its stop, silently.
+    ("num = 5", "num = 1", ["design.gamma.num", "must be > 1 for a range", "got 1"]),
     ("alpha = 1.5", "alpha = 0.9", ["design.alpha", ">= 1", "0.9"]),
     ("beta = [1.0, 1.5]", "beta = [1.0, 0.5]", ["design.beta", ">= 1", "0.5"]),
     ("beta = [1.0, 1.5]", "beta = []", ["design.beta", "empty"]),

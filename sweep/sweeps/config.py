@@ -384,6 +384,10 @@ def _grid_axis(design, name):
     _check_domain(tab, "stop", name, stop)
     if num > 1 and not stop > start:
         tab.error("stop", f"must be > start = {start!r} for {num} distinct points", stop)
+    if num == 1 and stop != start:
+        # One point cannot span [start, stop]: numpy's linspace took start, silently.
+        tab.error("num", f"must be > 1 for a range from {start!r} to {stop!r} (one value: "
+                         "give the number, or start = stop)", num)
     if spacing == "log" and not start > 0:
         tab.error("start", 'must be > 0 with spacing = "log"', start)
     return _axis_values(start, stop, num, spacing)
