@@ -15,9 +15,13 @@ energy ``H = v^2/2 + F(u) = 1/2 - q``.
   trajectories at the rate ``gamma beta u^(beta-1)``; where ``eps <= EPS_JUMP / 2`` (``/ 10`` under
   a load) and the state is near it (``|phi - 1 - p eps| <= 0.1``, ``phi = -gamma beta v / u^p``),
   :func:`jump` moves the bead along it to ``u_t`` with ``eps(u_t) = EPS_JUMP`` (raised to 1.1 u-bar
-  under a load), at the leading-order branch ``V = (g~ - u^alpha) / (gamma beta u^(beta-1))``. The
-  placement error is damped by ``exp(-1/(|kappa| eps_t)) <= e^-30`` before the exit. The time
-  skipped is the integral of ``du / |V|`` by Gauss-Legendre quadrature in ``log u``. Below u_t the
+  under a load), landing on ``v = V phi`` with ``V = (g~ - u^alpha) / (gamma beta u^(beta-1))``
+  the leading-order branch and ``phi(eps) = 1 + p eps + ...`` its series (``PHI_TERMS``; under a
+  load plus ``(beta - 1) eps g~ / u^alpha``). The placement error is damped by
+  ``exp(-1/(|kappa| eps_t)) <= e^-30`` before the exit. The time skipped is the integral of
+  ``du / |V phi|`` by Gauss-Legendre quadrature in ``log u``, plus the bead's lag behind the
+  branch at departure, ``-(v - V phi) / (D_eff V phi)``, which the attraction does not undo
+  (at the leading order and without the lag t_f was off by up to 1.5%; now ~5e-6). Below u_t the
   motion is the universal inner problem of scale ``(gamma beta)^(-2/|kappa|)``, whose time scale
   ``u^((1-alpha)/2)`` the march's step is re-based on.
 
@@ -49,6 +53,13 @@ _JUMP_P = 16.0
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(16)
 _GL_X = np.ascontiguousarray(0.5 * (_GL_X + 1.0))
 _GL_W = np.ascontiguousarray(0.5 * _GL_W)
+#: Terms of the slow branch's series phi(eps) beyond 1. Its truncation error at eps_t, the
+#: largest eps of a jump, over alpha, beta in [1, 3] (step 0.1) with kappa < 0, against the
+#: branch integrated in log eps (DOP853, rtol 1e-14): 1.2e-6 at 6 terms, 3.9e-8 at 8,
+#: 1.3e-9 at 10, 4.4e-11 at 12 (worst at kappa -> 0-, p ~ 1.9, ratio ~0.18 a term), then
+#: slower (1, 3: kappa = -4, terms ~ |kappa| n eps_t): 2.3e-12 at 16; the coefficients grow
+#: like n! (kappa eps)^n, the series is asymptotic (best near 1/(|kappa| eps_t) >= 30 terms).
+PHI_TERMS = 12
 
 
 class Creep(NamedTuple):
@@ -130,16 +141,83 @@ def near_slow_branch(c, k, u, w, v):
 
 
 @jit(inline="always")
-def jump(c, k, u):
-    """Move the bead along the slow branch from ``u`` to ``k.u_t``: returns the new
-    ``(u, w, v, dt)`` with dt the time the move takes (``int du / |V|``)."""
+def _put_coefficient(K, n, a):
+    # a_n in the stage rows 1.. (a device function cannot allocate; K[0] is set after).
+    K[1 + n // 3, n % 3] = a
+
+
+@jit(inline="always")
+def _coefficient(K, n):
+    return K[1 + n // 3, n % 3]
+
+
+@jit(inline="always")
+def _branch_series(k, K):
+    """Store the coefficients ``a_0 .. a_PHI_TERMS`` of the slow branch's ``phi(eps)`` at
+    g~ = 0 in the stage array ``K`` (rows 1 on; docs/creep.md, section 7).
+
+    ``v = -u^p phi / (gamma beta)`` in ``v dv/du = -u^alpha - gamma beta u^(beta-1) v`` gives
+    ``eps phi (p phi + kappa eps phi') = phi - 1``, whose regular solution has ``a_0 = 1`` and
+    ``a_n = sum_k a_k (p + kappa (n-1-k)) a_(n-1-k)``, summed here in the symmetric form
+    ``(p + kappa (n-1)/2) sum_k a_k a_(n-1-k)``."""
+    _put_coefficient(K, 0, 1.0)
+    for n in range(1, PHI_TERMS + 1):
+        s = 0.0
+        for j in range(n):
+            s += _coefficient(K, j) * _coefficient(K, n - 1 - j)
+        _put_coefficient(K, n, (k.p + 0.5 * k.kappa * (n - 1)) * s)
+
+
+@jit(inline="always")
+def _branch_factor(c, k, u, K):
+    """``v / V`` on the slow branch at ``u`` (u >= u_t), from the series in K.
+
+    At g~ = 0 the truncated series phi(eps). Under a load ``v / V = phi(eps) +
+    (beta - 1) eps s + O(eps^2 s)`` with ``s = g~ / u^alpha`` (< 1 on the jump's range): the
+    first-order term of the double series in eps and s, whose eps^0 part is exact."""
+    eps = u ** k.kappa / (c.gamma * c.beta) ** 2
+    phi = 0.0
+    for n in range(PHI_TERMS, -1, -1):
+        phi = phi * eps + _coefficient(K, n)
+    if c.gtilde > 0.0:
+        phi += (c.beta - 1.0) * eps * c.gtilde / ppow_called(u, c.alpha, c.ka)
+    return phi
+
+
+@jit(inline="always")
+def _phase_lag(c, k, u, v, K):
+    """Time by which a bead at ``(u, v)`` near the slow branch trails one on it, for ever:
+    ``-(v - V) / (D_eff V)``.
+
+    The offset ``dv = v - V`` obeys ``d(dv)/dt = -(D + V') dv`` exactly (``D = gamma beta
+    u^(beta-1)``), so it dies within ``1/D`` but leaves the bead ``dv / D_eff`` ahead along
+    the branch: a shift in time that no later attraction removes (the jump departs up to
+    10% off the branch: t_f off by ~1e-4 relative, e unchanged). ``V' = V0' phi`` to
+    O(eps^2), ``V0' = -(alpha u^alpha + (beta - 1)(g~ - u^alpha)) / (u D)``."""
+    d = damping_rate(u, c)
+    ua = ppow_called(u, c.alpha, c.ka)
+    phi = _branch_factor(c, k, u, K)
+    big_v = slow_velocity(u, c) * phi
+    dv_du = -(c.alpha * ua + (c.beta - 1.0) * (c.gtilde - ua)) / (u * d) * phi
+    return -(v - big_v) / ((d + dv_du) * big_v)
+
+
+@jit(inline="always")
+def jump(c, k, u, v, K):
+    """Move the bead at ``(u, v)`` along the slow branch to ``k.u_t``: returns the new
+    ``(u, w, v, dt)`` with dt the time the move takes (``int du / |V|``, ``V = V0 phi``,
+    plus the bead's lag behind the branch, :func:`_phase_lag`).
+
+    ``K``: the stage array, whose rows from 1 on hold the branch's series meanwhile (the
+    march restarts from the landing, with K[0] set there by the caller)."""
+    _branch_series(k, K)
     lo, hi = math.log(k.u_t), math.log(u)
     dt = 0.0
     for i in range(_GL_X.size):
         x = math.exp(lo + (hi - lo) * _GL_X[i])
-        dt += _GL_W[i] * x / -slow_velocity(x, c)
-    dt *= hi - lo
-    v_t = slow_velocity(k.u_t, c)
+        dt += _GL_W[i] * x / -(slow_velocity(x, c) * _branch_factor(c, k, x, K))
+    dt = dt * (hi - lo) + _phase_lag(c, k, u, v, K)
+    v_t = slow_velocity(k.u_t, c) * _branch_factor(c, k, k.u_t, K)
     return k.u_t, v_t + c.gamma * k.u_t ** c.beta, v_t, dt
 
 

@@ -333,11 +333,11 @@ def _overdamped_here(u, c):
 
 
 @jit(inline="always")
-def _jumped(c, k, u, t, K):
+def _jumped(c, k, u, v, t, K):
     """State after the jump along the slow branch: ``(u, w, r, v, t, e0)`` with K[0] = f
     there. The energy left there, ``e0 = H``, is far below 1/2's rounding (e.g. 1e-17), so
     the dissipation restarts from 0 (``q = gamma v u^beta + r = 0``) and ``H = e0 - q``."""
-    u, w, v, dt = jump(c, k, u)
+    u, w, v, dt = jump(c, k, u, v, K)
     r = -c.gamma * v * ppow_called(u, c.beta, c.kb)
     fu, fw, fr = rhs_called(u, w, c)
     _set_first_stage(K, fu, fw, fr)
@@ -457,7 +457,7 @@ def _creep_rules(st, c, k, K, e_tol):
         if doubt >= 0.0 and _worth_going_on(st, doubt):
             kind = -1       # H still falls: a few steps more make the stick certain
     if kind == BUDGET:
-        u, w, r, v, t, e0 = _jumped(c, k, u, st.t, K)
+        u, w, r, v, t, e0 = _jumped(c, k, u, v, st.t, K)
         if not (math.isfinite(t) and v != 0.0):
             # The landing point is so deep (u_t ~ 1e-75 for kappa ~ -0.16 and gamma ~ 1e6)
             # that the creep's speed there underflows and its duration overflows: the
