@@ -451,5 +451,6 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
     if missing:
         raise ValueError(f"the dataset has no variable {missing[0]!r}; it has "
                          f"{', '.join(map(str, ds.data_vars))}")
+    path.parent.mkdir(parents=True, exist_ok=True)   # as sweep run makes its output's
     (_write_csv if fmt == "csv" else _write_npz)(ds, path, variables)
     return path

@@ -230,3 +230,12 @@ def test_export_over_its_own_dataset_is_refused(scene, tmp_path, capsys, fmt):
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "is the dataset itself" in err
     assert scene.read_bytes() == before
+
+
+def test_export_makes_the_output_directory(scene, tmp_path):
+    # As `sweep run -o new/x.nc` does; export failed on a directory not yet there.
+    out = tmp_path / "new" / "deeper" / "t.csv"
+    assert main(["export", str(scene), "--csv", "-o", str(out), "--no-check"]) == 0
+    with open(out, newline="") as fh:
+        rows = list(csv.reader(fh))
+    assert len(rows) == 1 + 2 * 25 * 6       # header, then one row per (material, v0, F)
