@@ -294,8 +294,7 @@ def _warn_budget(status: Any) -> None:
 
 
 def _warn_tol(e_err: Any, status: Any, tol: float) -> None:
-    # A budget-exhausted point has had its own warning.
-    above = (np.asarray(e_err) > tol) & (np.asarray(status) != Status.BUDGET_EXHAUSTED)
+    above = registry.misses_tol(e_err, status, tol)
     n = int(np.count_nonzero(above))
     if n:
         worst = float(np.max(np.asarray(e_err)[above]))

@@ -244,30 +244,18 @@ def _integrated(m: registry.Method, alpha: np.ndarray, beta: np.ndarray, gamma: 
         return e, status
     e_err = extra[0]["e_err"]
     for factor in RETRY_TOL_FACTORS:
-        above = np.flatnonzero((e_err > tol) & (status != registry.Status.BUDGET_EXHAUSTED))
+        above = np.flatnonzero(registry.misses_tol(e_err, status, tol))
         if not above.size:
             return e, status
         e[above], status[above], x = m.resolve()(
             alpha[above], beta[above], gamma[above], gtilde[above],
             **_integrator_options(factor * tol, options))
         e_err[above] = x["e_err"]
-    n = int(np.count_nonzero((e_err > tol) & (status != registry.Status.BUDGET_EXHAUSTED)))
+    n = int(np.count_nonzero(registry.misses_tol(e_err, status, tol)))
     if n:
         warnings.warn(f"{n} point(s) integrated by auto may miss tol={tol:g}: their error "
                       f"estimate e_err is above it; integrate gives e_err per point",
                       RuntimeWarning, stacklevel=6)
-    return e, status
-    above = np.flatnonzero((extra[0]["e_err"] > tol)
-                           & (status != registry.Status.BUDGET_EXHAUSTED))
-    if above.size:
-        e2, s2, x2 = m.resolve()(alpha[above], beta[above], gamma[above], gtilde[above],
-                                 **_integrator_options(RETRY_TOL_FACTOR * tol, options))
-        e[above], status[above] = e2, s2
-        n = int(np.count_nonzero(x2["e_err"] > tol))
-        if n:
-            warnings.warn(f"{n} point(s) integrated by auto may miss tol={tol:g}: their "
-                          f"error estimate e_err is above it (up to {x2['e_err'].max():.2g}); "
-                          "integrate gives e_err per point", RuntimeWarning, stacklevel=4)
     return e, status
 
 

@@ -43,7 +43,7 @@ __all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "
            "unregister_method", "register_field", "unregister_field", "method",
            "approximations", "composites", "method_fields", "integrator_fields",
            "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX", "DEVICES",
-           "MAX_STEP_BUDGET"]
+           "MAX_STEP_BUDGET", "misses_tol"]
 
 #: The report every equation number refers to.
 REPORT = ("A. Chatterjee, G. James, B. Brogliato, Approximate analytical coefficient of "
@@ -72,6 +72,13 @@ class Status(enum.IntEnum):
     #: Invalid input (alpha < 1, beta < 1, gamma < 0 or > 1e300, g~ < 0, non-finite, or an
     #: approximation used outside its domain): ``e = NaN``.
     INVALID = 4
+
+
+def misses_tol(e_err: Any, status: Any, tol: float) -> np.ndarray:
+    """Elementwise: the point's error estimate ``e_err`` is above ``tol``, so the engine
+    cannot vouch for it (near grazing, or below e's rounding floor, ~1e-13); a point out of
+    its step budget is not counted here: its e is only a bound, a caveat of its own."""
+    return (np.asarray(e_err) > tol) & (np.asarray(status) != Status.BUDGET_EXHAUSTED)
 
 
 # --------------------------------------------------------------------------- domains

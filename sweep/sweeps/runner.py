@@ -208,7 +208,7 @@ def _caveats(plan, res, statuses):
     tol = plan.integrator.get("tol")
     above = 0
     if res is not None and tol is not None:
-        above = int(np.count_nonzero((res.e_err > tol) & ~out))
+        above = int(np.count_nonzero(registry.misses_tol(res.e_err, res.status, tol) & ~out))
     return int(np.count_nonzero(out)), above
 
 
