@@ -395,14 +395,6 @@ def _write_npz(ds: Any, path: Path, variables: list[str]) -> None:
                  **{v: ds[v].transpose(*SCENE_DIMS).values for v in variables})
 
 
-def _same_file(a: Path, b: Path) -> bool:
-    """``a`` and ``b`` name one file (through links too), or one path where ``a`` is new."""
-    try:
-        return os.path.samefile(a, b)
-    except OSError:  # either is missing: only the same path can be the same file
-        return a.resolve() == b.resolve()
-
-
 def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
            variables: list[str] | None = None) -> Path:
     """Write a scene's table as CSV or NumPy ``.npz``.
@@ -435,7 +427,7 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
         ``path`` the dataset's own file.
     """
     path = Path(path)
-    if isinstance(dataset, (str, os.PathLike)) and _same_file(path, Path(dataset)):
+    if isinstance(dataset, (str, os.PathLike)) and store.same_file(path, dataset):
         # Written over, the dataset was replaced by its export, exit 0.
         raise ValueError(f"the output {path} is the dataset itself; give another -o")
     ds = _open(dataset)

@@ -54,7 +54,7 @@ from sweep.store.metadata import (CAVEAT_ATTRS, CONVENTIONS, MATERIAL_NAME, REPO
                                   coordinate_attrs, index_dtype, law_units_attrs,
                                   variable_spec)
 from sweep.store.netcdf import (CHUNK_CACHE_BYTES, COMPLEVEL, STORAGE_CHUNK, SUFFIXES,
-                                NetCDFWriter, commit)
+                                NetCDFWriter, commit, same_file)
 from sweep.store.partial import (CHUNK_FORMAT, MANIFEST_FORMAT, LockError, OutputLock,
                                  PartialStore, ResumeError, lock_path, partial_bytes,
                                  partial_dir, remove_untrusted)
@@ -67,4 +67,5 @@ __all__ = [
     "COMPLEVEL", "SUFFIXES", "CHUNK_FORMAT", "LockError", "OutputLock", "lock_path",
     "partial_bytes", "remove_untrusted", "CONVENTIONS", "SPACINGS", "index_dtype",
     "law_units_attrs", "MATERIAL_NAME", "check_readable", "open_dataset", "CAVEAT_ATTRS",
+    "same_file",
 ]

@@ -32,8 +32,8 @@ from sweep.store.layout import Layout, flat_blocks
 from sweep.store.schema import (Variable, cast_exactly, chunk_values, dataset_variables,
                                 stored_attr)
 
-__all__ = ["NetCDFWriter", "commit", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK", "COMPLEVEL",
-           "CHECKSUM", "SUFFIXES"]
+__all__ = ["NetCDFWriter", "commit", "same_file", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK",
+           "COMPLEVEL", "CHECKSUM", "SUFFIXES"]
 
 #: File name suffixes of the outputs this backend writes. Any other suffix is refused
 #: rather than written as netCDF under a misleading name (``out.zarr`` would be HDF5).
@@ -192,6 +192,15 @@ def _fsync_path(path, directory=False):
         pass
     finally:
         os.close(fd)
+
+
+def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """``a`` and ``b`` name one file (through links too), or one path where either is
+    missing: an output that would be written over its own input."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # either is missing: only the same path can be the same file
+        return Path(a).resolve() == Path(b).resolve()
 
 
 def commit(tmp: str | os.PathLike, final: str | os.PathLike) -> None:

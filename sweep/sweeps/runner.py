@@ -630,13 +630,7 @@ def _check_output_path(output):
 def _check_not_the_config(output, source):
     """Refuse an output that is the configuration file itself (``sweep run x.nc`` writes
     x.nc by default): with --restart the run replaced the configuration by its output."""
-    if not source or not output.exists():
-        return
-    try:
-        same = os.path.samefile(output, source)
-    except OSError:  # the source is no file (a string, a dict): nothing to overwrite
-        return
-    if same:
+    if source and output.exists() and store.same_file(output, source):
         raise RunError(f"the output {output} is the configuration file itself; give "
                        "another -o")
 
