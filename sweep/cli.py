@@ -244,9 +244,11 @@ def _cmd_validate(args):
     for line in pre.lines():
         print(f"  {line}")
     if not args.no_estimate:
-        rate, source = runner.estimate_rate(cfg, args.output)
+        rate, source, caveats = runner.estimate_rate(cfg, args.output)
         print(f"  estimated time: {preflight.format_duration(pre.n_points / rate)} at "
               f"{_format.rate(rate)} ({source})")
+        for line in caveats:
+            print(f"  caveat: {line}")
     refusal = pre.refusal(_limits(args)) or pre.disk_refusal()
     if refusal is not None and not args.force:
         print(f"sweep validate: error: `sweep run` would refuse {args.config}: {refusal}",

@@ -625,8 +625,8 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
           METHODS["numeric"].description, fill_value=math.nan),
     Field("sticks", np.dtype(np.bool_), "bead does not rebound",
           "true if the impact ends without rebound, e = 0 (Algorithm 1, phase 3: v = 0 with "
-          "u > 0, or converged to rest); false if it rebounds or the point is invalid "
-          "(status)", derived=_sticks, flags={"rebounds": 0, "sticks": 1}),
+          "u > 0, or converged to rest); false if it rebounds, if the point is invalid, or if "
+          "the step budget ran out before the outcome was decided (status)", derived=_sticks, flags={"rebounds": 0, "sticks": 1}),
     Field("t_f", np.dtype(np.float64), "impact duration T_f",
           "scaled time T_f at the end of the impact (report eq. (3)), in units of T of "
           "eq. (2); inf where the bead creeps for ever, or longer than double precision "

@@ -54,6 +54,21 @@ def test_validate_rejects_with_the_key_and_value(cfg, capsys):
     assert "design.beta" in err and "0.5" in err and ">= 1" in err
 
 
+def test_validate_tells_of_a_step_budget_the_resolution_cannot_meet(cfg, capsys):
+    # 10^6 steps per half period in a budget of 1,000 steps: every point of the run would be
+    # an upper bound, which validate said nothing of (the run warned only at its end).
+    # (gamma > 0: at gamma = 0 e = 1 exactly, without a step)
+    cfg.write_text(CONFIG.replace("steps = 16", "steps = 1e6\nmax_steps = 1000")
+                   .replace("start = 0.0", "start = 0.02"))
+    assert cli.main(["validate", str(cfg)]) == 0
+    out = capsys.readouterr().out
+    n = int(out.split("(calibration on ")[1].split(" point")[0])
+    assert f"caveat: {n} of {n} sample points ran out of the step budget" in out
+    cfg.write_text(CONFIG)                              # 16 steps finish within the default
+    assert cli.main(["validate", str(cfg)]) == 0
+    assert "caveat" not in capsys.readouterr().out
+
+
 def test_run_then_info(cfg, tmp_path, capsys):
     out = tmp_path / "o.nc"
     assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 0

@@ -690,20 +690,36 @@ def preflight(cfg: _config.Config | str | Path, output: str | Path | None = None
 
 
 def estimate_rate(cfg: _config.Config | str | Path,
-                  output: str | Path | None = None) -> tuple[float, str]:
-    """Points per second :func:`run` can expect, and where the figure comes from.
+                  output: str | Path | None = None) -> tuple[float, str, list[str]]:
+    """Points per second :func:`run` can expect, where the figure comes from, and the
+    caveats met on the way.
 
     The rate of the last run of this configuration into ``output`` if there is one, else
     a short calibration (:func:`sweep.sweeps.preflight.calibrate`; the kernels are
-    compiled or loaded first, untimed).
+    compiled or loaded first, untimed). The calibration's largest sample is also judged as
+    a run judges its points (:func:`caveat_messages`): a step budget too small for the
+    resolution shows here, before the run, not at its end.
 
     Returns
     -------
-    (float, str)
+    (float, str, list of str)
+        Points per second, its source, and one sentence per caveat of the calibration's
+        largest sample (none after a last run: ``sweep info`` lists its caveats).
     """
     job = _prepare(cfg, output, None, True, None)
-    return _preflight_mod.estimate_rate(job.design, functools.partial(compute_chunk, job.plan),
-                                        job.output, job.cfg.sha256)
+    sample = {}
+
+    def compute(*points):
+        arrays, seconds, caveats = compute_chunk(job.plan, *points)
+        sample.update(n=len(points[0]), counts=dict(zip(_CAVEATS, caveats)))
+        return arrays, seconds, caveats
+    rate_, source = _preflight_mod.estimate_rate(job.design, compute, job.output,
+                                                 job.cfg.sha256)
+    if not sample:
+        return rate_, source, []
+    lines = caveat_messages(_applicable(job.plan, sample["counts"]),
+                            count(sample["n"], "sample point"), job.plan.integrator.get("tol"))
+    return rate_, source, lines
 
 
 def _preflight(job, force, limits):
@@ -838,21 +854,37 @@ def _applicable(plan, counts):
     return {name: int(counts[name]) for name in names}
 
 
+def caveat_messages(counts: dict, n: str, tol: float | None) -> list[str]:
+    """One sentence for each count of :data:`sweep.store.CAVEAT_ATTRS` above 0.
+
+    Parameters
+    ----------
+    counts : dict of str -> int
+        The counts, by attribute name (those that apply to the configuration).
+    n : str
+        The points they are counted in, spelt out ("1,000 points").
+    tol : float or None
+        The integrator's ``tol`` [1, abs error of e].
+    """
+    lines = []
+    if counts.get(_CAVEATS[0]):
+        lines.append(f"{counts[_CAVEATS[0]]:,} of {n} ran out of the step budget: their e is "
+                     "an upper bound, not a value (status BUDGET_EXHAUSTED; store status in "
+                     "outputs.fields to see which, or raise integrator.max_steps)")
+    if counts.get(_CAVEATS[1]):
+        lines.append(f"{counts[_CAVEATS[1]]:,} of {n} may miss integrator.tol = {tol:g}: "
+                     "their error estimate e_err is above it (near grazing, or below e's "
+                     "rounding floor, about 1e-13; store e_err in outputs.fields to see which)")
+    return lines
+
+
 def _warn_caveats(job):
     """Step 11a: a :class:`CaveatWarning` for each count of
     :data:`sweep.store.CAVEAT_ATTRS` above 0 (the file records them too; a point's
     ``status`` and ``e_err`` say which only where stored)."""
-    attrs, n = job.result.caveats, count(job.design.size, "point")
-    if attrs.get(_CAVEATS[0]):
-        warnings.warn(f"{attrs[_CAVEATS[0]]:,} of {n} ran out of the step budget: their e is "
-                      "an upper bound, not a value (status BUDGET_EXHAUSTED; store status in "
-                      "outputs.fields to see which, or raise integrator.max_steps)",
-                      CaveatWarning, stacklevel=4)
-    if attrs.get(_CAVEATS[1]):
-        warnings.warn(f"{attrs[_CAVEATS[1]]:,} of {n} may miss integrator.tol = "
-                      f"{job.plan.integrator['tol']:g}: their error estimate e_err is above "
-                      "it (near grazing, or below e's rounding floor, about 1e-13; store "
-                      "e_err in outputs.fields to see which)", CaveatWarning, stacklevel=4)
+    for line in caveat_messages(job.result.caveats, count(job.design.size, "point"),
+                                job.plan.integrator.get("tol")):
+        warnings.warn(line, CaveatWarning, stacklevel=4)
 
 
 def _chunk_points(job, start, stop):
