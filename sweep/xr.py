@@ -229,9 +229,11 @@ class SweepAccessor:
         with the settings the dataset records for ``method`` (:func:`sweep.api.recorded_settings`:
         a file of ``sweep run`` gives its own numbers back) unless ``options`` say others."""
         recorded = api.recorded_settings(self._ds.attrs, method)
-        if {"tol", "steps"} & options.keys():
-            # The resolution is one setting: a tol given is not overruled by the file's steps.
-            recorded = {k: v for k, v in recorded.items() if k not in ("tol", "steps")}
+        if "tol" in options:
+            # A tol given chooses the resolution: the file's steps must not overrule it.
+            recorded.pop("steps", None)
+        # A steps given leaves the file's tol alone: auto's tol is its selection
+        # tolerance, and numeric's still sets the refinement target.
         return cor(*self.parameters(), method=method, **{**recorded, **options})
 
     def error(self, method: str, reference: str = "e_numeric",

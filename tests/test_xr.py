@@ -334,6 +334,20 @@ def test_accessor_recomputes_with_the_settings_the_file_records(tmp_path):
               sweep.cor(a.values, b.values, g.values, gt.values, tol=1e-6))
 
 
+def test_accessor_steps_given_keeps_the_files_tol(tmp_path):
+    # auto's tol is its selection tolerance: a steps given used to drop the file's
+    # tol = 1e-3 for the default 1e-6, so even the file's own steps gave other numbers.
+    text = DOE.replace('e = ["numeric", "ord1"]', 'e = ["numeric", "ord1", "auto"]') + \
+        "[options.auto]\ntol = 1e-3\n"
+    with xr.open_dataset(made_by_sweep_run(text, tmp_path / "s.nc")) as ds:
+        ds = ds.load()
+    p = [ds[k].values for k in ("alpha", "beta", "gamma", "gtilde")]
+    for steps in (16.0, 40.0):
+        same_bits(ds.sweep.cor("auto", steps=steps).values,
+                  sweep.cor(*p, method="auto", tol=1e-3, steps=steps))
+    same_bits(ds.sweep.cor("auto", steps=16.0).values, ds.e_auto.values)
+
+
 def test_accessor_on_a_hand_built_dataset():
     ds = xr.Dataset(coords={"alpha": [1.5], "beta": [1.5], "gamma": GAMMA, "gtilde": GTILDE})
     e = ds.sweep.cor("ord2_numint")
