@@ -36,9 +36,17 @@ PARAMETERS = registry.PARAMETER_NAMES
 def _labelled(name: str, value: Any) -> xr.DataArray:
     """A DataArray for one parameter; scalars become 0-d (no dimension to name)."""
     if isinstance(value, xr.DataArray):
+        if value.dtype.kind not in "iuf":
+            # The dtype is known without computing: refused now, not when a dask graph runs.
+            raise ValueError(f"{name} must be a real number (int or float) or an array of "
+                             f"them, got a DataArray of dtype {value.dtype}")
         return value
+    if isinstance(value, xr.Dataset):
+        raise TypeError(f"{name} must be a scalar or an xarray.DataArray, got a Dataset of "
+                        f"{sorted(map(str, value.data_vars))}: pick one, e.g. ds[{name!r}]")
     if np.ndim(value) == 0:
-        return xr.DataArray(np.asarray(value, dtype=np.float64))
+        # As sweep.cor: a string, bool, None or complex is refused, not converted.
+        return xr.DataArray(registry.real_array(name, value))
     # A bare array has no dimension names to broadcast by; guessing them would be wrong.
     raise TypeError(
         f"{name} must be a scalar or an xarray.DataArray, got {type(value).__name__} of "

@@ -5,6 +5,7 @@ broadcast by hand; sweep.xr must give the same bits, lazily for dask inputs.
 """
 import dataclasses
 import os
+import re
 import subprocess
 import sys
 
@@ -236,6 +237,35 @@ def test_scalars():
     assert int(ds.status) == sweep.Status.OK and ds.n_steps.dtype == np.int32
     with pytest.raises(ValueError, match="gamma"):  # a scalar call raises, as sweep.cor does
         sx.cor(1.5, 1.5, -0.1, 1.0).values
+
+
+@pytest.mark.parametrize("bad", ["0.1", True, None, 0.1 + 0j])
+def test_scalars_that_are_not_real_numbers_are_refused_like_sweep_cor(bad):
+    # They were converted: "0.1" parsed, True taken as 1, None as NaN ("must be finite").
+    with pytest.raises(ValueError) as expected:
+        sweep.cor(1.5, 1.5, bad, 1.0)
+    for f in (sx.cor, sx.integrate):
+        with pytest.raises(ValueError) as got:
+            f(1.5, 1.5, bad, 1.0)
+        assert str(got.value) == str(expected.value)
+
+
+@pytest.mark.parametrize("values", [np.array(["0.1"]), np.array([True]),
+                                    np.array(["2020-01-01"], dtype="M8[ns]")])
+def test_arrays_that_are_not_real_numbers_are_refused_at_call_time_even_for_dask(values):
+    # A dask-backed one gave a lazy result that failed (or not) only when computed.
+    gamma = xr.DataArray(values, dims="p")
+    with pytest.raises(ValueError):
+        sweep.cor(1.5, 1.5, values, 1.0)
+    for g in (gamma, gamma.chunk()):
+        with pytest.raises(ValueError, match=f"gamma .*dtype {re.escape(str(values.dtype))}"):
+            sx.cor(1.5, 1.5, g, 1.0)
+
+
+def test_a_dataset_as_a_parameter_is_refused_naming_it():
+    ds = xr.Dataset({"gamma": ("p", GAMMA), "other": ("q", [1.0])})
+    with pytest.raises(TypeError, match=r"gamma .*Dataset.*ds\['gamma'\]"):
+        sx.cor(1.5, 1.5, ds, 1.0)
 
 
 def test_invalid_values_give_nan_and_invalid_in_arrays():
