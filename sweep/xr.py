@@ -192,6 +192,20 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any,
 
 # --------------------------------------------------------------------------- accessor
 
+def _dim_chunks(ds: xr.Dataset) -> dict:
+    """Dask chunks per dimension of a dataset: a parameter's own first, then any variable's.
+
+    Not ``ds.chunksizes``, which refuses a dataset whose variables are chunked differently
+    (``open_dataset(chunks="auto")`` sizes each variable's chunks by its dtype: an int8
+    status gets chunks 8 times those of a float64 e).
+    """
+    out: dict = {}
+    for v in [*(ds[p].variable for p in PARAMETERS), *ds.variables.values()]:
+        for dim, c in zip(v.dims, v.chunks or ()):
+            out.setdefault(dim, c)
+    return out
+
+
 @xr.register_dataset_accessor("sweep")
 class SweepAccessor:
     """``ds.sweep``: CoR methods at the points of a sweep dataset (registered by
@@ -220,7 +234,7 @@ class SweepAccessor:
         if missing:
             raise KeyError(f"not a sweep dataset: no {', '.join(missing)} (a sweep dataset "
                            f"has {', '.join(PARAMETERS)} as coordinates or variables)")
-        chunks = ds.chunksizes
+        chunks = _dim_chunks(ds)
         out = []
         for name in PARAMETERS:
             p = ds[name]

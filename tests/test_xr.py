@@ -378,6 +378,24 @@ def test_accessor_steps_given_keeps_the_files_tol(tmp_path):
     same_bits(ds.sweep.cor("auto", steps=16.0).values, ds.e_auto.values)
 
 
+@pytest.mark.filterwarnings("ignore:The specified chunks separate the stored chunks")
+def test_accessor_on_variables_chunked_differently(tmp_path):
+    # chunks="auto" sizes chunks by dtype (int8 status: 8 times float64 e's), and the
+    # accessor failed: "Object has inconsistent chunks along dimension point".
+    text = DOE.replace('fields = ["error_ord1"]', 'fields = ["status", "error_ord1"]')
+    path = made_by_sweep_run(text, tmp_path / "s.nc")
+    with xr.open_dataset(path) as ds:
+        ds = ds.load()
+    counter = CountingScheduler()
+    with dask.config.set({"array.chunk-size": "128B", "scheduler": counter}), \
+            xr.open_dataset(path, chunks="auto") as lazy_ds:
+        assert lazy_ds.status.chunks != lazy_ds.e_ord1.chunks
+        err = lazy_ds.sweep.error("ord1")
+        assert counter.computes == 0 and isinstance(err.data, dsa.Array)
+        assert len(err.chunks[0]) > 1
+        same_bits(err.compute().values, ds.error_ord1.values)
+
+
 def test_accessor_on_a_hand_built_dataset():
     ds = xr.Dataset(coords={"alpha": [1.5], "beta": [1.5], "gamma": GAMMA, "gtilde": GTILDE})
     e = ds.sweep.cor("ord2_numint")
