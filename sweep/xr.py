@@ -249,7 +249,9 @@ class SweepAccessor:
     def cor(self, method: str = "numeric", **options: Any) -> xr.DataArray:
         """:func:`sweep.xr.cor` at the dataset's points (float64 [1], named ``e_<method>``),
         with the settings the dataset records for ``method`` (:func:`sweep.api.recorded_settings`:
-        a file of ``sweep run`` gives its own numbers back) unless ``options`` say others."""
+        a file of ``sweep run`` gives its own numbers back) unless ``options`` say others;
+        a ``tol`` given also sets aside the recorded ``steps`` (``tol`` then chooses the
+        resolution), a ``steps`` given replaces ``steps`` alone."""
         recorded = api.recorded_settings(self._ds.attrs, method)
         if "tol" in options:
             # A tol given chooses the resolution: the file's steps must not overrule it.
