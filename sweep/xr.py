@@ -54,14 +54,13 @@ def _labelled(name: str, value: Any) -> xr.DataArray:
         "sweep.cor / sweep.integrate for numpy broadcasting")
 
 
-def _probe(method: str, options: dict) -> Any:
+def _probe(function: Callable, **options: Any) -> Any:
     """Evaluate on zero points: checks method and options now rather than at compute time
-    (for dask inputs), and gives the output dtypes. Integrates nothing; the first call in a
-    process loads (or compiles) the kernels, which computing would do anyway."""
+    (for dask inputs), with the errors of the plain function, and gives the output dtypes.
+    Integrates nothing; the first call in a process loads (or compiles) the kernels, which
+    computing would do anyway."""
     z = np.empty(0)
-    if method == "numeric":
-        return api.integrate(z, z, z, z, **options)
-    return api.cor(z, z, z, z, method=method, **options)
+    return function(z, z, z, z, **options)
 
 
 def _method_attrs(method: str, options: dict) -> dict:
@@ -132,7 +131,7 @@ def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
         and the settings used (``integrator_*`` or ``option_*``).
     """
     registry.method(method)
-    _probe(method, options)
+    _probe(api.cor, method=method, **options)  # sweep.cor's errors, for "numeric" too
     out = _apply(_cor_block, (alpha, beta, gamma, gtilde),
                  {"method": method, "options": options}, [np.float64])
     out.name = f"e_{method}"
@@ -175,7 +174,7 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any,
         dask-backed (lazy, one integration per block) if any input is. Global attributes: ``method``
         ("numeric"), ``equation`` and the integrator settings used.
     """
-    probe = _probe("numeric", options)
+    probe = _probe(api.integrate, **options)
     # Names and dtypes come from the function itself, so a new field needs no edit here.
     dtypes = {f.name: np.asarray(getattr(probe, f.name)).dtype
               for f in dataclasses.fields(probe)}
