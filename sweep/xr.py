@@ -36,9 +36,17 @@ PARAMETERS = registry.PARAMETER_NAMES
 def _labelled(name: str, value: Any) -> xr.DataArray:
     """A DataArray for one parameter; scalars become 0-d (no dimension to name)."""
     if isinstance(value, xr.DataArray):
+        if value.dtype.kind not in "iuf":
+            # The dtype is known without computing: refused now, not when a dask graph runs.
+            raise ValueError(f"{name} must be a real number (int or float) or an array of "
+                             f"them, got a DataArray of dtype {value.dtype}")
         return value
+    if isinstance(value, xr.Dataset):
+        raise TypeError(f"{name} must be a scalar or an xarray.DataArray, got a Dataset of "
+                        f"{sorted(map(str, value.data_vars))}: pick one, e.g. ds[{name!r}]")
     if np.ndim(value) == 0:
-        return xr.DataArray(np.asarray(value, dtype=np.float64))
+        # As sweep.cor: a string, bool, None or complex is refused, not converted.
+        return xr.DataArray(registry.real_array(name, value))
     # A bare array has no dimension names to broadcast by; guessing them would be wrong.
     raise TypeError(
         f"{name} must be a scalar or an xarray.DataArray, got {type(value).__name__} of "
@@ -46,14 +54,13 @@ def _labelled(name: str, value: Any) -> xr.DataArray:
         "sweep.cor / sweep.integrate for numpy broadcasting")
 
 
-def _probe(method: str, options: dict) -> Any:
+def _probe(function: Callable, **options: Any) -> Any:
     """Evaluate on zero points: checks method and options now rather than at compute time
-    (for dask inputs), and gives the output dtypes. Integrates nothing; the first call in a
-    process loads (or compiles) the kernels, which computing would do anyway."""
+    (for dask inputs), with the errors of the plain function, and gives the output dtypes.
+    Integrates nothing; the first call in a process loads (or compiles) the kernels, which
+    computing would do anyway."""
     z = np.empty(0)
-    if method == "numeric":
-        return api.integrate(z, z, z, z, **options)
-    return api.cor(z, z, z, z, method=method, **options)
+    return function(z, z, z, z, **options)
 
 
 def _method_attrs(method: str, options: dict) -> dict:
@@ -124,7 +131,7 @@ def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
         and the settings used (``integrator_*`` or ``option_*``).
     """
     registry.method(method)
-    _probe(method, options)
+    _probe(api.cor, method=method, **options)  # sweep.cor's errors, for "numeric" too
     out = _apply(_cor_block, (alpha, beta, gamma, gtilde),
                  {"method": method, "options": options}, [np.float64])
     out.name = f"e_{method}"
@@ -167,7 +174,7 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any,
         dask-backed (lazy, one integration per block) if any input is. Global attributes: ``method``
         ("numeric"), ``equation`` and the integrator settings used.
     """
-    probe = _probe("numeric", options)
+    probe = _probe(api.integrate, **options)
     # Names and dtypes come from the function itself, so a new field needs no edit here.
     dtypes = {f.name: np.asarray(getattr(probe, f.name)).dtype
               for f in dataclasses.fields(probe)}
@@ -183,6 +190,20 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any,
 
 
 # --------------------------------------------------------------------------- accessor
+
+def _dim_chunks(ds: xr.Dataset) -> dict:
+    """Dask chunks per dimension of a dataset: a parameter's own first, then any variable's.
+
+    Not ``ds.chunksizes``, which refuses a dataset whose variables are chunked differently
+    (``open_dataset(chunks="auto")`` sizes each variable's chunks by its dtype: an int8
+    status gets chunks 8 times those of a float64 e).
+    """
+    out: dict = {}
+    for v in [*(ds[p].variable for p in PARAMETERS), *ds.variables.values()]:
+        for dim, c in zip(v.dims, v.chunks or ()):
+            out.setdefault(dim, c)
+    return out
+
 
 @xr.register_dataset_accessor("sweep")
 class SweepAccessor:
@@ -212,7 +233,7 @@ class SweepAccessor:
         if missing:
             raise KeyError(f"not a sweep dataset: no {', '.join(missing)} (a sweep dataset "
                            f"has {', '.join(PARAMETERS)} as coordinates or variables)")
-        chunks = ds.chunksizes
+        chunks = _dim_chunks(ds)
         out = []
         for name in PARAMETERS:
             p = ds[name]
@@ -227,11 +248,15 @@ class SweepAccessor:
     def cor(self, method: str = "numeric", **options: Any) -> xr.DataArray:
         """:func:`sweep.xr.cor` at the dataset's points (float64 [1], named ``e_<method>``),
         with the settings the dataset records for ``method`` (:func:`sweep.api.recorded_settings`:
-        a file of ``sweep run`` gives its own numbers back) unless ``options`` say others."""
+        a file of ``sweep run`` gives its own numbers back) unless ``options`` say others;
+        a ``tol`` given also sets aside the recorded ``steps`` (``tol`` then chooses the
+        resolution), a ``steps`` given replaces ``steps`` alone."""
         recorded = api.recorded_settings(self._ds.attrs, method)
-        if {"tol", "steps"} & options.keys():
-            # The resolution is one setting: a tol given is not overruled by the file's steps.
-            recorded = {k: v for k, v in recorded.items() if k not in ("tol", "steps")}
+        if "tol" in options:
+            # A tol given chooses the resolution: the file's steps must not overrule it.
+            recorded.pop("steps", None)
+        # A steps given leaves the file's tol alone: auto's tol is its selection
+        # tolerance, and numeric's still sets the refinement target.
         return cor(*self.parameters(), method=method, **{**recorded, **options})
 
     def error(self, method: str, reference: str = "e_numeric",

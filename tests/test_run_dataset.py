@@ -153,6 +153,15 @@ def test_out_writes_the_file_and_opens_it(tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d.nc"]   # no lock, no partial
 
 
+def test_restart_without_out_is_refused_naming_out(tmp_path, monkeypatch):
+    # It raised "run_in_memory() got an unexpected keyword argument 'restart'".
+    monkeypatch.chdir(tmp_path)
+    for restart in (True, False):
+        with pytest.raises(TypeError, match="restart needs out="):
+            sweep.run(GRID, quiet=True, restart=restart)
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("bad", [
     GRID.replace("alpha = 1.5", "alpha = 0.5"),
     GRID.replace("[outputs]", "[output]"),

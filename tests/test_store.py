@@ -221,3 +221,22 @@ def test_summarize_reports_dims_variables_and_statistics(tmp_path):
     assert "min 0.25, mean 0.6, max 1, NaN 1 of 6" in text
     assert "integrator_steps = 64.0" in text
     assert "gtilde   [0, 10]" in text
+
+
+def test_summarize_tells_infinite_values_from_nan(tmp_path):
+    # t_f is inf where the bead creeps for ever: it was counted as NaN and left out of max.
+    axes = {"alpha": np.array([1.5]), "beta": np.array([1.5]),
+            "gamma": np.array([0.0, 0.1]), "gtilde": np.array([0.0, 1.0, 10.0])}
+    layout = store.Layout(dims=tuple(axes), shape=(1, 1, 2, 3), axes=axes)
+    data = fake_results(6, np.random.default_rng(2))
+    t_f = np.array([2.0, np.inf, 3.0, np.nan, 4.0, np.inf])
+    data["t_f"] = t_f
+    data["error_ord1"][:] = [0.1, -np.inf, 0.0, 0.0, 0.0, 0.0]
+    path = tmp_path / "s.nc"
+    write_dataset(path, layout, data, [(0, 6)], attrs={"sweep_version": "0.1.0"})
+    text = store.summarize(path)
+    finite = t_f[np.isfinite(t_f)]
+    assert (f"min {np.nanmin(t_f):.6g}, mean {finite.mean():.6g}, max {np.nanmax(t_f):.6g}, "
+            f"NaN {np.isnan(t_f).sum()} of 6, infinite {np.isinf(t_f).sum()} (not in the "
+            "mean)") in text
+    assert "max |error| inf" in text

@@ -5,6 +5,7 @@ broadcast by hand; sweep.xr must give the same bits, lazily for dask inputs.
 """
 import dataclasses
 import os
+import re
 import subprocess
 import sys
 
@@ -169,6 +170,12 @@ def test_bad_options_raise_at_call_time_even_for_dask_inputs():
         sx.cor(1.5, 1.5, gamma, 1.0, method="ord3")
     with pytest.raises(TypeError):
         sx.integrate(1.5, 1.5, gamma, 1.0, stepz=16)
+    for method in ("numeric", "ord1"):   # sweep.cor's error (numeric's was integrate()'s)
+        with pytest.raises(ValueError) as expected:
+            sweep.cor(1.5, 1.5, GAMMA, 1.0, method=method, stepz=16)
+        with pytest.raises(ValueError) as got:
+            sx.cor(1.5, 1.5, gamma, 1.0, method=method, stepz=16)
+        assert str(got.value) == str(expected.value)
     with pytest.raises(TypeError, match="DataArray"):
         sx.cor(1.5, 1.5, GAMMA, 1.0)                 # bare arrays have no dimension names
 
@@ -236,6 +243,35 @@ def test_scalars():
     assert int(ds.status) == sweep.Status.OK and ds.n_steps.dtype == np.int32
     with pytest.raises(ValueError, match="gamma"):  # a scalar call raises, as sweep.cor does
         sx.cor(1.5, 1.5, -0.1, 1.0).values
+
+
+@pytest.mark.parametrize("bad", ["0.1", True, None, 0.1 + 0j])
+def test_scalars_that_are_not_real_numbers_are_refused_like_sweep_cor(bad):
+    # They were converted: "0.1" parsed, True taken as 1, None as NaN ("must be finite").
+    with pytest.raises(ValueError) as expected:
+        sweep.cor(1.5, 1.5, bad, 1.0)
+    for f in (sx.cor, sx.integrate):
+        with pytest.raises(ValueError) as got:
+            f(1.5, 1.5, bad, 1.0)
+        assert str(got.value) == str(expected.value)
+
+
+@pytest.mark.parametrize("values", [np.array(["0.1"]), np.array([True]),
+                                    np.array(["2020-01-01"], dtype="M8[ns]")])
+def test_arrays_that_are_not_real_numbers_are_refused_at_call_time_even_for_dask(values):
+    # A dask-backed one gave a lazy result that failed (or not) only when computed.
+    gamma = xr.DataArray(values, dims="p")
+    with pytest.raises(ValueError):
+        sweep.cor(1.5, 1.5, values, 1.0)
+    for g in (gamma, gamma.chunk()):
+        with pytest.raises(ValueError, match=f"gamma .*dtype {re.escape(str(values.dtype))}"):
+            sx.cor(1.5, 1.5, g, 1.0)
+
+
+def test_a_dataset_as_a_parameter_is_refused_naming_it():
+    ds = xr.Dataset({"gamma": ("p", GAMMA), "other": ("q", [1.0])})
+    with pytest.raises(TypeError, match=r"gamma .*Dataset.*ds\['gamma'\]"):
+        sx.cor(1.5, 1.5, ds, 1.0)
 
 
 def test_invalid_values_give_nan_and_invalid_in_arrays():
@@ -332,6 +368,38 @@ def test_accessor_recomputes_with_the_settings_the_file_records(tmp_path):
         grid = grid.load()
     same_bits(grid.sweep.cor("numeric", tol=1e-6).transpose(*a.dims).values,
               sweep.cor(a.values, b.values, g.values, gt.values, tol=1e-6))
+
+
+def test_accessor_steps_given_keeps_the_files_tol(tmp_path):
+    # auto's tol is its selection tolerance: a steps given used to drop the file's
+    # tol = 1e-3 for the default 1e-6, so even the file's own steps gave other numbers.
+    text = DOE.replace('e = ["numeric", "ord1"]', 'e = ["numeric", "ord1", "auto"]') + \
+        "[options.auto]\ntol = 1e-3\n"
+    with xr.open_dataset(made_by_sweep_run(text, tmp_path / "s.nc")) as ds:
+        ds = ds.load()
+    p = [ds[k].values for k in ("alpha", "beta", "gamma", "gtilde")]
+    for steps in (16.0, 40.0):
+        same_bits(ds.sweep.cor("auto", steps=steps).values,
+                  sweep.cor(*p, method="auto", tol=1e-3, steps=steps))
+    same_bits(ds.sweep.cor("auto", steps=16.0).values, ds.e_auto.values)
+
+
+@pytest.mark.filterwarnings("ignore:The specified chunks separate the stored chunks")
+def test_accessor_on_variables_chunked_differently(tmp_path):
+    # chunks="auto" sizes chunks by dtype (int8 status: 8 times float64 e's), and the
+    # accessor failed: "Object has inconsistent chunks along dimension point".
+    text = DOE.replace('fields = ["error_ord1"]', 'fields = ["status", "error_ord1"]')
+    path = made_by_sweep_run(text, tmp_path / "s.nc")
+    with xr.open_dataset(path) as ds:
+        ds = ds.load()
+    counter = CountingScheduler()
+    with dask.config.set({"array.chunk-size": "128B", "scheduler": counter}), \
+            xr.open_dataset(path, chunks="auto") as lazy_ds:
+        assert lazy_ds.status.chunks != lazy_ds.e_ord1.chunks
+        err = lazy_ds.sweep.error("ord1")
+        assert counter.computes == 0 and isinstance(err.data, dsa.Array)
+        assert len(err.chunks[0]) > 1
+        same_bits(err.compute().values, ds.error_ord1.values)
 
 
 def test_accessor_on_a_hand_built_dataset():

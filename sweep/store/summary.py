@@ -287,22 +287,27 @@ def _flag_stats(attrs, var):
 
 
 def _value_stats(name, var):
-    n = nan = 0
+    """min, mean and max of a variable; NaN and infinite values counted apart: an inf is a
+    value (t_f where the bead creeps for ever), in min / max but not in the mean."""
+    n = nan = inf = 0
     lo, hi, total, amax = math.inf, -math.inf, 0.0, 0.0
     for block in _iter_flat(var, var.shape):
         block = block.astype(np.float64)
-        ok = np.isfinite(block)
         n += block.size
-        nan += int(block.size - np.count_nonzero(ok))
-        good = block[ok]
-        if good.size:
-            lo, hi = min(lo, float(good.min())), max(hi, float(good.max()))
-            total += float(good.sum())
-            amax = max(amax, float(np.abs(good).max()))
-    valid = n - nan
-    if not valid:
-        return f"all {n} values NaN"
-    text = f"min {lo:.6g}, mean {total / valid:.6g}, max {hi:.6g}, NaN {nan} of {n}"
+        values = block[~np.isnan(block)]
+        nan += block.size - values.size
+        finite = values[np.isfinite(values)]
+        inf += values.size - finite.size
+        if values.size:
+            lo, hi = min(lo, float(values.min())), max(hi, float(values.max()))
+            total += float(finite.sum())
+            amax = max(amax, float(np.abs(values).max()))
+    if not n - nan:
+        return f"all {n} values NaN" if n else "no values"
+    mean = f"{total / (n - nan - inf):.6g}" if n - nan - inf else "-"
+    text = f"min {lo:.6g}, mean {mean}, max {hi:.6g}, NaN {nan} of {n}"
+    if inf:
+        text += f", infinite {inf} (not in the mean)"
     if name.startswith("error_"):
         text += f", max |error| {amax:.3g}"
     return text

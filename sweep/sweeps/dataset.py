@@ -54,12 +54,19 @@ def run(config: Any, *, out: str | os.PathLike | None = None, **run_options: Any
     sweep.sweeps.runner.RunError
         Refused by the preflight (e.g. a dataset larger than this machine's memory), an
         output that cannot be written, an unreachable scheduler.
+    TypeError
+        ``restart`` without ``out=``, or an option :func:`sweep.sweeps.runner.run` does
+        not take.
 
     Examples
     --------
     >>> ds = sweep.run("configs/report_kk.toml", quiet=True)        # doctest: +SKIP
     >>> ds.e_numeric.sel(gtilde=1.0).plot(x="gamma")                 # doctest: +SKIP
     """
+    if out is None and "restart" in run_options:
+        # Said here: run_in_memory's own TypeError would name a function the caller never saw.
+        raise TypeError("restart needs out=: an in-memory run writes nothing and has nothing "
+                        "to resume or restart")
     cfg = _config.as_config(config)
     if out is None:
         dataset, _ = _runner.run_in_memory(cfg, **run_options)
