@@ -409,7 +409,8 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
     fmt : {"csv", "npz"}, optional
         Format (default: from the suffix of ``path``).
     variables : list of str, optional
-        Per-point variables written (default: gamma, gtilde and every ``e_<method>``).
+        Per-point variables written (default: gamma, gtilde, every ``e_<method>`` and
+        ``e_err`` where stored).
 
     Returns
     -------

@@ -162,6 +162,19 @@ def test_restart_without_out_is_refused_naming_out(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_limits_that_are_not_limits_are_refused_naming_them(tmp_path, monkeypatch):
+    # limits="x" raised AttributeError: 'str' object has no attribute 'max_points'.
+    monkeypatch.chdir(tmp_path)
+    for out in (None, "o.nc"):
+        with pytest.raises(TypeError, match="limits must be a .*Limits, got str 'x'"):
+            sweep.run(GRID, out=out, quiet=True, limits="x")
+    assert list(tmp_path.iterdir()) == []
+    ds = sweep.run(GRID, quiet=True, limits=preflight.Limits(max_points=24))
+    assert ds.sizes["gamma"] == 4
+    with pytest.raises(runner.RunError, match="24"):
+        sweep.run(GRID, quiet=True, limits=preflight.Limits(max_points=23))
+
+
 @pytest.mark.parametrize("bad", [
     GRID.replace("alpha = 1.5", "alpha = 0.5"),
     GRID.replace("[outputs]", "[output]"),

@@ -725,6 +725,10 @@ def estimate_rate(cfg: _config.Config | str | Path,
 def _preflight(job, force, limits):
     """Step 2: size the run from the layout alone (done by :func:`_prepare`); refuse it
     above the limits unless ``force`` -- before anything is allocated or written."""
+    if limits is not None and not isinstance(limits, _preflight_mod.Limits):
+        # Read attribute by attribute below: anything else was an AttributeError.
+        raise TypeError(f"limits must be a sweep.sweeps.preflight.Limits, got "
+                        f"{type(limits).__name__} {limits!r:.60}")
     refusal = job.pre.refusal(limits or _preflight_mod.Limits())
     if refusal is not None:
         if not force:
