@@ -396,7 +396,7 @@ class PartialStore:
             # --restart (rmtree said "Not a directory").
             raise ResumeError(f"{self.dir} exists and is not a directory, so not a run's "
                               "partial directory; move or delete it, or choose another "
-                              "output with -o")
+                              "output with -o (out=)")
         if restart and self.dir.exists():
             shutil.rmtree(self.dir)
         self.discarded = remove_untrusted(self.output) or 0

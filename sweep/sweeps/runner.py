@@ -791,8 +791,9 @@ def _existing_output_is_current(job, restart):
         return True
     what = ("was made by a different configuration or version of sweep" if attrs
             else "is not a sweep output")
-    raise store.ResumeError(f"{output} exists and {what}; use --restart to overwrite "
-                            "it, or choose another output with -o")
+    # Worded for both fronts: sweep.run(out=...) meets these too.
+    raise store.ResumeError(f"{output} exists and {what}; use --restart (restart=True) to "
+                            "overwrite it, or choose another output with -o (out=)")
 
 
 def _check_intact(output):
@@ -804,8 +805,8 @@ def _check_intact(output):
     except OSError as exc:
         raise store.ResumeError(
             f"{output} has this configuration's attributes but cannot be read "
-            f"({exc.strerror or exc}): it is damaged; use --restart to recompute it, or "
-            "choose another output with -o") from exc
+            f"({exc.strerror or exc}): it is damaged; use --restart (restart=True) to "
+            "recompute it, or choose another output with -o (out=)") from exc
 
 
 def _plan_chunks(job):
