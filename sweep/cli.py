@@ -57,6 +57,22 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
+    def parse_known_args(self, args=None, namespace=None):
+        ns, extra = super().parse_known_args(args, namespace)
+        # The innermost (sub)command finishes first and is kept: the parser an unknown
+        # argument belongs to, for its error line.
+        if getattr(ns, "_parser", None) is None:
+            ns._parser = self
+        return ns, extra
+
+    def parse_args(self, args=None, namespace=None):
+        ns, extra = self.parse_known_args(args, namespace)
+        if extra:
+            # argparse blamed the top parser ("sweep: error: ... see sweep --help") for an
+            # option misspelt after `sweep report accuracy`.
+            ns._parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        return ns
+
 
 def _int_at_least(low, high=None):
     """An argparse ``type=``: an integer >= ``low`` (and <= ``high``, if given)."""

@@ -125,6 +125,22 @@ def test_python_dash_m_sweep_is_the_command(cfg):
     assert res.returncode == 2 and "invalid choice" in res.stderr
 
 
+@pytest.mark.parametrize("argv, command", [
+    (["report", "accuracy", "x.nc", "--n", "5"], "sweep report accuracy"),
+    (["run", "c.toml", "--bogus"], "sweep run"),
+    (["validate", "c.toml", "extra"], "sweep validate"),
+])
+def test_an_unknown_argument_is_blamed_on_its_subcommand(argv, command, capsys):
+    # argparse blamed the top parser: "sweep: error: unrecognized arguments: --n 5 (see
+    # sweep --help)", whose help does not list a subcommand's options.
+    with pytest.raises(SystemExit) as info:
+        cli.main(argv)
+    unknown = " ".join(argv[3:] if argv[0] == "report" else argv[2:])
+    assert info.value.code == 2
+    assert capsys.readouterr().err == (f"{command}: error: unrecognized arguments: {unknown} "
+                                       f"(see {command} --help)\n")
+
+
 def _parsers(parser):
     yield parser
     for action in parser._actions:
