@@ -77,6 +77,15 @@ def _next_trial(x0, lo, hi, expansions):
     return np.clip(x, _LOWEST, _HIGHEST)
 
 
+def _geometric_mid(lo, hi):
+    """sqrt(lo hi), also where lo hi overflows (thresholds above 1e154: the trial was inf,
+    an invalid point, and the search gave NaN) or underflows (below 1e-162: 0)."""
+    with np.errstate(over="ignore", under="ignore"):
+        mid = np.sqrt(lo * hi)
+    outside = ~((mid > lo) & (mid < hi))
+    return np.where(outside, np.sqrt(lo) * np.sqrt(hi), mid)
+
+
 def _threshold(evaluate, start, fallback_start):
     """Vectorised bracketing + geometric bisection for the smallest x without rebound.
 
@@ -122,7 +131,7 @@ def _threshold(evaluate, start, fallback_start):
         idx = np.flatnonzero(active & (hi > lo * (1.0 + RTOL)))
         if idx.size == 0:
             break
-        probe(idx, np.sqrt(lo[idx] * hi[idx]))
+        probe(idx, _geometric_mid(lo[idx], hi[idx]))
     done = active
     out[done] = hi[done]
     return out
@@ -140,6 +149,22 @@ def _check_method(method, options):
         registry.METHODS["numeric"].refuse_unknown(options, extra=("parallel",))
 
 
+def _approx(unknown, x, c, r):
+    """(24): g~_c = (1/(2 gamma C))^(1/r), equivalently gamma_c = 1/(2 C g~^r), of the
+    known value ``x``. An intermediate that overflows (1/gamma for a subnormal gamma, g~^r
+    for g~ = 1e200) gave inf for g~_c = 7e175 and an overflow warning: where the plain
+    formula is inf or 0 for a positive x, the logarithms are summed instead."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        if unknown == "gtilde":
+            plain = (1.0 / (2.0 * x * c)) ** (1.0 / r)
+            logs = -(np.log(2.0 * c) + np.log(x)) / r
+        else:
+            plain = 1.0 / (2.0 * c * x ** r)
+            logs = -(np.log(2.0 * c) + r * np.log(x))
+        redo = (x > 0.0) & np.isfinite(x) & ((plain == 0.0) | np.isinf(plain))
+        return np.where(redo, np.exp(logs), plain)
+
+
 def _critical(unknown, alpha, beta, known, method, options):
     """Threshold of ``unknown`` ("gtilde" or "gamma") given the other one, ``known``."""
     _check_method(method, options)
@@ -149,11 +174,7 @@ def _critical(unknown, alpha, beta, known, method, options):
     a, be, x = b.flat
     point = {"alpha": a, "beta": be, other: x, unknown: 0.0}
     valid = registry.valid_points(*(point[n] for n in registry.PARAMETER_NAMES))
-    c, r = _constants(a, be)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        # (24): g~_c = (1/(2 gamma C))^(1/r), equivalently gamma_c = 1/(2 C g~^r).
-        approx = np.where(valid, (1.0 / (2.0 * x * c)) ** (1.0 / r) if unknown == "gtilde"
-                          else 1.0 / (2.0 * c * x ** r), np.nan)
+    approx = np.where(valid, _approx(unknown, x, *_constants(a, be)), np.nan)
     if method == "approx" or not valid.any():
         return b.restore(approx)
 

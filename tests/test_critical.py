@@ -149,3 +149,20 @@ def test_numeric_threshold_far_below_the_approximation_is_found():
     gc = K.critical_gamma(1.5, 1.5, 1e-9, method="numeric")
     assert dop853_cor(1.5, 1.5, gc * (1 - 1e-3), 1e-9).e > 0
     assert dop853_cor(1.5, 1.5, gc * (1 + 1e-3), 1e-9).e == 0.0
+
+
+def test_thresholds_beyond_1e154_and_subnormal_gamma():
+    # Prop. 1 for KK, g~_c = 0.30522 gamma^(-6/11), is the small-gamma limit the bisection
+    # approaches. At gamma = 1e-300 the bisection's midpoint sqrt(lo hi) overflowed (the
+    # search returned NaN); at a subnormal gamma (24) itself overflowed in 1/gamma (inf,
+    # for 6.8e175) and g~^r at g~ = 1e200 warned of an overflow.
+    import warnings  # noqa: PLC0415
+
+    gamma = np.array([1e-300, 5e-324])
+    hand = 0.30522 * np.exp(-6 / 11 * np.log(gamma))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_allclose(K.critical_gtilde(1.5, 1.5, gamma), hand, rtol=2e-5)
+        np.testing.assert_allclose(K.critical_gtilde(1.5, 1.5, gamma, method="numeric"),
+                                   hand, rtol=2e-5)
+        assert K.critical_gamma(1.5, 1.5, 1e200) == 0.0     # 1/(2 C 1e200^(11/6)) < 1e-324
