@@ -14,9 +14,11 @@ Above the critical scaled load ``g~_c(alpha, beta, gamma)`` (resp. damping
     ``integrate`` call per iteration over the array of trial values. The search assumes that
     the bead rebounds below the threshold and not above it (e decreases with g~ and gamma,
     reaching 0 like the square root of the distance to the threshold, SPEC section 7).
-    Returns ``0.0`` where it does not rebound even at 1e-12 of the approximate threshold,
-    ``inf`` where it still rebounds at 1e12 times it, and NaN where the integrator could not
-    decide (budget exhausted) during the search. A rebound below the integrator's ``e_err``
+    The bracket grows from (24) by factors of 4, then (where (24) is far off: small g~,
+    creep) by factors that square each step, down to 1e-300 and up to 1e300. Returns
+    ``0.0`` where it does not rebound even at 1e-300, ``inf`` where it still rebounds at
+    1e300, and NaN where the integrator could not decide (budget exhausted) during the
+    search. A rebound below the integrator's ``e_err``
     (1e-9 at the defaults; ``tol`` lowers it) counts as none: the search finds where e
     falls below that. At g~ = 0, gamma_c is the theory's where it has one (docs/creep.md,
     section 4): ``inf`` for ``2 beta > alpha + 1`` (the bead always leaves, with e falling
@@ -41,7 +43,8 @@ __all__ = ["critical_gtilde", "critical_gamma", "RTOL"]
 #: Relative precision of the numerical bisection.
 RTOL = 1e-8
 _FACTOR = 4.0        # bracket expansion factor
-_MAX_EXPAND = 20     # 4^20 ~ 1e12 either way from the approximate threshold
+_MAX_EXPAND = 20     # steps at _FACTOR (4^20 ~ 1e12 from (24)); beyond, the factor squares
+_LOWEST, _HIGHEST = 1e-300, 1e300   # the bracket's ends: below, 0; above, inf (gamma's max)
 _METHODS = ("approx", "numeric")
 
 
@@ -61,6 +64,26 @@ def _rebounds(alpha, beta, gamma, gtilde, options):
     stuck = (status == Status.STUCK) | (status == Status.AT_REST) | \
         ((status == Status.OK) & (e == 0.0))
     return rebound, rebound | stuck
+
+
+def _next_trial(x0, lo, hi, expansions):
+    """The next bracketing trial: ``x0`` first, then ``lo`` times (``hi`` over) a factor,
+    4 for ``_MAX_EXPAND`` steps, squaring each step beyond, kept in [1e-300, 1e300]."""
+    extra = np.maximum(expansions - _MAX_EXPAND, 0)
+    factor = np.exp(np.log(_FACTOR) * 2.0 ** np.minimum(extra, 16))   # inf beyond 4^2^9
+    with np.errstate(over="ignore"):
+        x = np.where((lo == 0.0) & np.isinf(hi), x0,
+                     np.where(np.isinf(hi), lo * factor, hi / factor))
+    return np.clip(x, _LOWEST, _HIGHEST)
+
+
+def _geometric_mid(lo, hi):
+    """sqrt(lo hi), also where lo hi overflows (thresholds above 1e154: the trial was inf,
+    an invalid point, and the search gave NaN) or underflows (below 1e-162: 0)."""
+    with np.errstate(over="ignore", under="ignore"):
+        mid = np.sqrt(lo * hi)
+    outside = ~((mid > lo) & (mid < hi))
+    return np.where(outside, np.sqrt(lo) * np.sqrt(hi), mid)
 
 
 def _threshold(evaluate, start, fallback_start):
@@ -91,24 +114,24 @@ def _threshold(evaluate, start, fallback_start):
     # Bracket, expanding geometrically from the approximate threshold.
     while True:
         need = active & ((lo == 0.0) | np.isinf(hi))
-        too_far = need & (expansions > _MAX_EXPAND)
-        out[too_far & (lo == 0.0)] = 0.0
-        out[too_far & np.isinf(hi)] = np.inf
-        active &= ~too_far
-        need &= ~too_far
-        idx = np.flatnonzero(need)
+        # At an end of the range and still no bracket: no rebound down to 1e-300 is 0, a
+        # rebound up to 1e300 is inf (the search stopped at 1e12 from (24) and returned 0
+        # where (24) is 1e15 too high, g~ = 1e-9 for KK, while the bead rebounds there).
+        none_down = need & (lo == 0.0) & (hi <= _LOWEST)
+        all_up = need & np.isinf(hi) & (lo >= _HIGHEST)
+        out[none_down], out[all_up] = 0.0, np.inf
+        active &= ~(none_down | all_up)
+        idx = np.flatnonzero(need & ~(none_down | all_up))
         if idx.size == 0:
             break
-        x = np.where((lo[idx] == 0.0) & np.isinf(hi[idx]), x0[idx],
-                     np.where(np.isinf(hi[idx]), lo[idx] * _FACTOR, hi[idx] / _FACTOR))
+        probe(idx, _next_trial(x0[idx], lo[idx], hi[idx], expansions[idx]))
         expansions[idx] += 1
-        probe(idx, x)
     # Bisect in log space until hi/lo - 1 <= RTOL.
     while True:
         idx = np.flatnonzero(active & (hi > lo * (1.0 + RTOL)))
         if idx.size == 0:
             break
-        probe(idx, np.sqrt(lo[idx] * hi[idx]))
+        probe(idx, _geometric_mid(lo[idx], hi[idx]))
     done = active
     out[done] = hi[done]
     return out
@@ -126,6 +149,22 @@ def _check_method(method, options):
         registry.METHODS["numeric"].refuse_unknown(options, extra=("parallel",))
 
 
+def _approx(unknown, x, c, r):
+    """(24): g~_c = (1/(2 gamma C))^(1/r), equivalently gamma_c = 1/(2 C g~^r), of the
+    known value ``x``. An intermediate that overflows (1/gamma for a subnormal gamma, g~^r
+    for g~ = 1e200) gave inf for g~_c = 7e175 and an overflow warning: where the plain
+    formula is inf or 0 for a positive x, the logarithms are summed instead."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        if unknown == "gtilde":
+            plain = (1.0 / (2.0 * x * c)) ** (1.0 / r)
+            logs = -(np.log(2.0 * c) + np.log(x)) / r
+        else:
+            plain = 1.0 / (2.0 * c * x ** r)
+            logs = -(np.log(2.0 * c) + r * np.log(x))
+        redo = (x > 0.0) & np.isfinite(x) & ((plain == 0.0) | np.isinf(plain))
+        return np.where(redo, np.exp(logs), plain)
+
+
 def _critical(unknown, alpha, beta, known, method, options):
     """Threshold of ``unknown`` ("gtilde" or "gamma") given the other one, ``known``."""
     _check_method(method, options)
@@ -135,11 +174,7 @@ def _critical(unknown, alpha, beta, known, method, options):
     a, be, x = b.flat
     point = {"alpha": a, "beta": be, other: x, unknown: 0.0}
     valid = registry.valid_points(*(point[n] for n in registry.PARAMETER_NAMES))
-    c, r = _constants(a, be)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        # (24): g~_c = (1/(2 gamma C))^(1/r), equivalently gamma_c = 1/(2 C g~^r).
-        approx = np.where(valid, (1.0 / (2.0 * x * c)) ** (1.0 / r) if unknown == "gtilde"
-                          else 1.0 / (2.0 * c * x ** r), np.nan)
+    approx = np.where(valid, _approx(unknown, x, *_constants(a, be)), np.nan)
     if method == "approx" or not valid.any():
         return b.restore(approx)
 

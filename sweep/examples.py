@@ -151,10 +151,11 @@ def lookup_cor(material: design.Material, g: float, v_lo: float, v_hi: float,
             t = tables.Table(out)
     else:
         t = tables.Table(table)
+    name = f" {table}" if isinstance(table, (str, Path)) else ""
     try:  # the two ends of the bounce, looked up: the lookup's own checks, once
         t(np.array([v_lo, v_hi]), 0.0, material.name)
+        _check_same_bead(t, material, g)
     except ValueError as exc:
-        name = f" {table}" if isinstance(table, (str, Path)) else ""
         raise ValueError(f"lookup table{name}: {exc}; the bounce needs {material.name!r} "
                          f"at F = 0 and impact speeds [v_stop, sqrt(2 g h0)] = [{v_lo:.6g}, "
                          f"{v_hi:.6g}] m/s") from None
@@ -164,6 +165,27 @@ def lookup_cor(material: design.Material, g: float, v_lo: float, v_hi: float,
         gamma, gtilde = scale(mat.m, mat.k, mat.gamma0, v, mat.alpha, mat.beta, g)
         return float(t(v, 0.0, mat.name)), gamma, gtilde
     return cor, t.error()
+
+
+def _check_same_bead(t: tables.Table, material: design.Material, g: float) -> None:
+    """Refuse a table whose material of that name, or whose gravity, is not the bounce's:
+    the table is found by name only, and another bead's e (a scene's ``steel_ball`` with
+    ten times the damping, or under the Moon's g) was used for every impact, silently.
+
+    Raises
+    ------
+    ValueError
+        Naming the first property that differs, the table's value and the bounce's.
+    """
+    i = t.materials.index(material.name)
+    for prop in ("m", "k", "gamma0", "alpha", "beta"):
+        have, want = float(t.properties[prop][i]), float(getattr(material, prop))
+        if not math.isclose(have, want, rel_tol=1e-12):
+            raise ValueError(f"its {material.name!r} has {prop} = {have!r}, the bounce's "
+                             f"bead {prop} = {want!r}")
+    if not math.isclose(t.g, g, rel_tol=1e-12):
+        raise ValueError(f"it was computed under g = {t.g!r} m/s^2, the bounce falls under "
+                         f"g = {g!r} m/s^2")
 
 
 def first_impact_speed(h0: float, g: float) -> float:

@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from sweep import api, registry
 from sweep.model import scale
 
@@ -40,10 +42,20 @@ TSUJI = registry.MODELS["tti"]
 _PROPERTY_OF = {"E1": "E", "nu1": "nu", "E2": "E", "nu2": "nu"}
 
 
+def _single(**values: float) -> None:
+    """Refuse a value that is not one number, naming the parameter: the formulas here are
+    scalar (``math``), and a list or an array met them as a TypeError naming neither."""
+    for name, value in values.items():
+        if np.ndim(value) != 0:
+            raise ValueError(f"{name} must be a single number, got {value!r}")
+
+
 def _check(**values: float) -> None:
-    """Refuse a value outside its domain (:data:`sweep.registry.PHYSICAL`,
-    :data:`sweep.registry.MATERIAL`), naming the parameter as given (``E2``)."""
+    """Refuse a value that is not one number or is outside its domain
+    (:data:`sweep.registry.PHYSICAL`, :data:`sweep.registry.MATERIAL`), naming the
+    parameter as given (``E2``)."""
     domains = {**registry.PHYSICAL, **registry.MATERIAL}
+    _single(**values)
     for name, value in values.items():
         registry.check_array(name, value, {name: domains[_PROPERTY_OF.get(name, name)]})
 
@@ -76,7 +88,8 @@ def effective_modulus(E1: float, nu1: float, E2: float = math.inf, nu2: float = 
     Raises
     ------
     ValueError
-        A value outside its domain, naming the parameter and the value.
+        A value that is not one number or is outside its domain, naming the parameter
+        and the value.
     """
     _check(E1=E1, nu1=nu1, nu2=nu2)
     rigid = E2 == math.inf
@@ -105,7 +118,8 @@ def hertz_stiffness(radius: float, E1: float, nu1: float, E2: float = math.inf,
     Raises
     ------
     ValueError
-        A value outside its domain, naming the parameter and the value.
+        A value that is not one number or is outside its domain, naming the parameter
+        and the value.
     """
     _check(radius=radius)
     return 4.0 / 3.0 * effective_modulus(E1, nu1, E2, nu2) * math.sqrt(radius)
@@ -182,6 +196,7 @@ def gamma0_for_cor(e: float, v0: float, m: float, k: float, alpha: float, beta: 
     """
     from scipy.optimize import brentq
 
+    _single(v0=v0, m=m, k=k, alpha=alpha, beta=beta, g=g, F=F)
     _check(e=e)
     per_gamma0, gtilde = scale(m, k, 1.0, v0, alpha, beta, g, F)
     if e == 1.0:

@@ -209,3 +209,24 @@ def test_cli_bounce_with_a_narrow_table(tmp_path, narrow_table, capsys):
     with open(out / "bounce_impacts.csv", newline="") as f:
         speeds = [float(row[2]) for row in list(csv.reader(f))[1:]]
     assert speeds[0] == pytest.approx(math.sqrt(2 * 9.81)) and min(speeds) >= 0.05
+
+
+@pytest.mark.parametrize("old, new, expected", [
+    ("gamma0 = 1.5237e-6", "gamma0 = 1.5237e-5",
+     r"its 'steel_ball' has gamma0 = 1.5237e-05, the bounce's bead gamma0 = 1.5237e-06"),
+    ('kind = "scene"', 'kind = "scene"\ng = 1.62',
+     r"it was computed under g = 1.62 m/s\^2, the bounce falls under g = 9.81 m/s\^2"),
+])
+def test_bounce_refuses_a_table_of_another_bead_or_gravity(tmp_path, old, new, expected):
+    # The table was found by the material's name only: a scene's steel_ball with ten times
+    # the damping (e = 0.30 at the first impact, the bounce's ball 0.88) or computed under
+    # the Moon's g served every impact, silently, beside the bounce's own gamma and g~.
+    from sweep.sweeps import config, runner
+
+    path = tmp_path / "other.nc"
+    text = NARROW_TABLE.replace(old, new).replace("start = 0.05", "start = 1e-5")
+    runner.run(config.loads(text, source="other.toml"), path, quiet=True)
+    out = tmp_path / "out"
+    with pytest.raises(ValueError, match=f"^lookup table {re.escape(str(path))}: {expected}"):
+        examples.bounce_example(out, source="lookup", table=path)
+    assert not out.exists()

@@ -176,6 +176,23 @@ def test_only_plus_inf_is_a_rigid_floor():
         materials.effective_modulus(63e9, 0.7)
 
 
+@pytest.mark.parametrize("call, named", [
+    (lambda: materials.sphere_mass([1e-3, 2e-3], 2500.0), "radius"),
+    (lambda: materials.effective_modulus([63e9, 1e9], 0.22), "E1"),
+    (lambda: materials.kuwabara_kono_gamma0([1.0], 1.0, 63e9, 0.22), "eta1"),
+    (lambda: materials.tsuji_gamma0(np.array([0.5, 0.9]), 1e-5, 1e8), "e"),
+    (lambda: materials.gamma0_for_cor(0.9, [1.0, 2.0], 2.05e-3, 9.858e9, 1.5, 1.5), "v0"),
+])
+def test_material_formulas_name_a_list_or_array_they_cannot_take(call, named):
+    # The formulas are scalar: a list met them as a TypeError ("unsupported operand type(s)
+    # for ** or pow(): 'list' and 'int'") or numpy's "truth value ... is ambiguous".
+    with pytest.raises(ValueError, match=f"^{named} must be a single number, got "):
+        call()
+    # A 0-d array is one number, and gives the formula's value.
+    assert materials.sphere_mass(np.array(1e-3), 2500.0) == pytest.approx(
+        4 / 3 * math.pi * 1e-9 * 2500.0, rel=1e-15)
+
+
 def test_tsuji_gamma0_of_a_perfect_bounce_is_plus_zero():
     assert math.copysign(1.0, materials.tsuji_gamma0(1.0, 2.05e-3, 9.858e9)) == 1.0
 
