@@ -568,7 +568,7 @@ def _bounce_conflict(args):
     if args.cor == "lookup" and (args.method is not None or args.tol is not None):
         given = "--method" if args.method is not None else "--tol"
         return (f"argument {given}: applies to --cor direct only (a lookup table's CoR is "
-                "the numerical one)")
+                "the one it stores: e_numeric, else e_auto, else its first e_<method>)")
     if args.cor == "direct" and args.table is not None:
         return f"argument --table: applies to --cor lookup only, got {args.table!r}"
     takes_tol = [m.name for m in registry.METHODS.values()

@@ -334,7 +334,8 @@ def _check_example_inputs(source: str, table: Any, method: str, h0: float, g: fl
         return
     if method != "numeric" or options:
         raise ValueError("method and options apply to source='direct' only (the table's "
-                         f"CoR is the numerical one), got method={method!r}, "
+                         "CoR is the one it stores: e_numeric, else e_auto, else its first "
+                         f"e_<method>), got method={method!r}, "
                          f"options={options!r} with source='lookup'")
     v_hit = first_impact_speed(h0, g)
     if table is None and not v_stop < v_hit:

@@ -57,7 +57,8 @@ class Status(enum.IntEnum):
     The integer values are stored in datasets (``status`` variable); never renumber them.
     """
 
-    #: The bead detached (u = 0 with v < 0): ``e = -v`` at detachment.
+    #: The bead detached (u = 0 with v < 0): ``e = -v`` at detachment. From a closed form
+    #: (or ``auto`` serving a point with one): a valid point, its e clipped to [0, 1].
     OK = 0
     #: The bead does not rebound (v = 0 with 0 < u <= u-bar in phase 3, or its energy fell
     #: below the floor level, from which it can never return to u = 0): ``e = 0``. Where

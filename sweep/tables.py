@@ -101,7 +101,8 @@ def _default_variable(ds: Any) -> str:
     for name in ("e_numeric", "e_auto"):
         if name in ds:
             return name
-    names = [n for n in ds.data_vars if str(n).startswith("e_")]
+    # e_err begins with e_ too: it is an error estimate, not a coefficient of restitution.
+    names = [n for n in ds.data_vars if str(n)[2:] in registry.METHODS and str(n)[:2] == "e_"]
     if not names:
         raise ValueError("the dataset stores no e_<method> variable")
     return str(names[0])
