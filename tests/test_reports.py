@@ -210,6 +210,36 @@ def test_accuracy_report_needs_errors(tmp_path):
         load_errors(ds)
 
 
+def _budget_config(fields):
+    """A grid whose marches mostly run out of a tiny step budget (max_steps = 60)."""
+    return {"design": {"kind": "grid", "alpha": 1.5, "beta": 1.5,
+                       "gamma": {"start": 1e-3, "stop": 1.0, "num": 6, "spacing": "log"},
+                       "gtilde": {"start": 1e-2, "stop": 10.0, "num": 5, "spacing": "log"}},
+            "outputs": {"e": ["numeric", "ord1"], "fields": fields},
+            "integrator": {"max_steps": 60}}
+
+
+def test_accuracy_report_refuses_budget_points_it_cannot_exclude(tmp_path):
+    """Budget-exhausted points have an upper bound for e_numeric: without status they
+    cannot be excluded, so the report refuses instead of counting them as errors."""
+    gamma, gtilde = np.meshgrid(np.geomspace(1e-3, 1.0, 6), np.geomspace(1e-2, 10.0, 5),
+                                indexing="ij")
+    ref = sweep.integrate(1.5, 1.5, gamma, gtilde, max_steps=60)
+    n_budget = int(np.sum(ref.status == sweep.Status.BUDGET_EXHAUSTED))
+    assert n_budget > 0
+    with pytest.warns(sweep.CaveatWarning):
+        sweep.run(_budget_config(["error_ord1"]), out=tmp_path / "nostatus.nc", quiet=True)
+    with pytest.raises(ValueError, match=f"{n_budget} point.*no status"):
+        accuracy_report(tmp_path / "nostatus.nc", tmp_path / "acc1")
+    with pytest.warns(sweep.CaveatWarning):
+        sweep.run(_budget_config(["status", "error_ord1"]), out=tmp_path / "status.nc",
+                  quiet=True)
+    rows = accuracy_report(tmp_path / "status.nc", tmp_path / "acc2")["rows"]
+    all_row = [r for r in rows if r["region"] == "all"][0]
+    assert all_row["excluded"] == n_budget
+    assert all_row["n_points"] == gamma.size - n_budget
+
+
 # --------------------------------------------------------------------------- paper tables
 
 def test_paper_values_match_spec_quotes():

@@ -85,6 +85,22 @@ def _flat(ds, name, like):
     return np.asarray(a.transpose(*like.dims).values).reshape(-1)
 
 
+def _refuse_unmarked_budget_points(ds: Any) -> None:
+    """Raise where the run recorded budget-exhausted points but the dataset has no status.
+
+    Such a point's ``e_numeric`` is an upper bound, not a value, so its error is not one;
+    without ``status`` it cannot be excluded (nor counted in ``excluded``), and a finite
+    upper bound would pass a NaN test. The runner records how many there were in the
+    global attribute ``points_budget_exhausted`` (:data:`sweep.store.CAVEAT_ATTRS`).
+    """
+    n = int(ds.attrs.get("points_budget_exhausted", 0) or 0)
+    if n > 0:
+        raise ValueError(f"{n:,} point(s) ran out of the step budget (their e_numeric is "
+                         "an upper bound, not a value) and the dataset stores no status "
+                         "to exclude them: rerun with 'status' in outputs.fields, or a "
+                         "larger integrator.max_steps")
+
+
 def load_errors(ds: Any) -> dict[str, Any]:
     """Flat per-point arrays of a sweep dataset (grid or scattered).
 
@@ -100,7 +116,8 @@ def load_errors(ds: Any) -> dict[str, Any]:
     ------
     ValueError
         No approximation error can be formed (needs ``e_numeric`` with ``e_<method>``, or
-        ``error_<method>``).
+        ``error_<method>``), or the run recorded budget-exhausted points
+        (``points_budget_exhausted``) that the dataset has no ``status`` to exclude.
     """
     from sweep.api import APPROXIMATIONS
 
@@ -117,6 +134,7 @@ def load_errors(ds: Any) -> dict[str, Any]:
         status = _flat(ds, "status", like).astype(int)
         decided = np.isin(status, (Status.OK, Status.STUCK, Status.AT_REST))
     else:
+        _refuse_unmarked_budget_points(ds)
         status = None
         decided = np.isfinite(e_num) if e_num is not None else np.ones(like.size, bool)
     if "sticks" in ds:
@@ -400,7 +418,8 @@ def accuracy_report(path: str | os.PathLike, out: str | os.PathLike | None = Non
     OSError
         ``path`` cannot be read or is not netCDF (:func:`sweep.store.open_dataset`).
     ValueError
-        The dataset holds no approximation and its error, or not ``methods``.
+        The dataset holds no approximation and its error, or not ``methods``, or
+        budget-exhausted points without the ``status`` to exclude them.
     """
     path = Path(path)
     with store.open_dataset(path) as ds:
