@@ -240,6 +240,31 @@ def test_accuracy_report_refuses_budget_points_it_cannot_exclude(tmp_path):
     assert all_row["n_points"] == gamma.size - n_budget
 
 
+def test_report_out_that_is_a_file_is_one_line_naming_the_output(grid_dataset, tmp_path,
+                                                                    capsys):
+    """--out on the dataset itself or on another file: one line about the output, never
+    "cannot read DATASET" (it was read), and the files are left as they were."""
+    path, _ = grid_dataset
+    before = path.read_bytes()
+    assert cli.main(["report", "accuracy", str(path), "--out", str(path)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot read" not in err[0] and "dataset itself" in err[0]
+    other = tmp_path / "taken.txt"
+    other.write_text("keep")
+    for argv in (["report", "accuracy", str(path), "--out", str(other)],
+                 ["report", "paper", "--out", str(other), "--models", "kk", "-q"]):
+        assert cli.main(argv) == 1
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{other}: is a file, not an output directory" in err[0]
+    assert path.read_bytes() == before and other.read_text() == "keep"
+
+
+def test_paper_report_refused_arguments_leave_no_directory(tmp_path):
+    with pytest.raises(ValueError, match="n_gamma"):
+        paper_report(tmp_path / "never", n_gamma=1, models=["kk"])
+    assert not (tmp_path / "never").exists()
+
+
 # --------------------------------------------------------------------------- paper tables
 
 def test_paper_values_match_spec_quotes():

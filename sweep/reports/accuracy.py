@@ -56,7 +56,7 @@ from numpy.typing import ArrayLike
 
 from sweep import store
 from sweep.model import Status
-from sweep.reports.common import use_agg, write_table
+from sweep.reports.common import make_out_dir, use_agg, write_table
 
 __all__ = ["accuracy_report", "load_errors", "model_groups", "region_masks", "region_table",
            "REGIONS", "critical_gtilde_24", "MAX_MODELS"]
@@ -426,8 +426,8 @@ def accuracy_report(path: str | os.PathLike, out: str | os.PathLike | None = Non
         data = load_errors(ds)
         title = str(ds.attrs.get("title", path.name))
     # after the dataset was read: a file that is none leaves no empty directory behind
-    out = Path(out) if out is not None else path.with_name(path.stem + "_accuracy")
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_out_dir(out if out is not None else path.with_name(path.stem + "_accuracy"),
+                       path)
     if methods is not None:
         unknown = [m for m in methods if m not in data["methods"]]
         if unknown:

@@ -12,6 +12,7 @@ never another report module, the runner's command line or argparse.
 from __future__ import annotations
 
 import csv
+import errno
 import math
 import os
 import platform
@@ -21,13 +22,34 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["use_agg", "machine_description", "machine_line", "format_value", "write_table",
-           "log_progress"]
+           "log_progress", "make_out_dir"]
 
 
 def log_progress(progress: bool, msg: str) -> None:
     """Print ``msg`` to stderr (flushed) if ``progress`` is true."""
     if progress:
         print(msg, file=sys.stderr, flush=True)
+
+
+def make_out_dir(out: str | os.PathLike, dataset: str | os.PathLike | None = None) -> Path:
+    """Create a report's output directory ``out`` (parents included) and return it.
+
+    Raises
+    ------
+    ValueError
+        ``out`` is the input ``dataset`` itself (mkdir's "File exists" named the input,
+        which the command line then called unreadable).
+    NotADirectoryError
+        ``out`` is an existing file: one line saying so, not mkdir's "File exists".
+    """
+    out = Path(out)
+    if dataset is not None and out.exists() and out.resolve() == Path(dataset).resolve():
+        raise ValueError("the output directory cannot be the dataset itself")
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, "is a file, not an output directory",
+                                 os.fspath(out))
+    out.mkdir(parents=True, exist_ok=True)
+    return out
 
 
 def use_agg() -> Any:

@@ -35,7 +35,6 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -44,7 +43,7 @@ from numpy.typing import ArrayLike
 import sweep
 from sweep.critical import RTOL
 from sweep.reports.common import (format_value, log_progress, machine_description,
-                                  machine_line, use_agg, write_table)
+                                  machine_line, make_out_dir, use_agg, write_table)
 from sweep.reports.paper_values import (FIGURES_CRITICAL, GAMMA_MAX, GRID_END_FACTOR,
                                         GTILDES, PAPER_MODELS, TABLE_A, TABLE_B,
                                         TABLE_B_EDGES, TRANSCRIPTION_NOTES, WINDOW_FRACTIONS)
@@ -503,14 +502,15 @@ def paper_report(out: str | os.PathLike = "paper_report", n_gamma: int = 1000, *
     Raises
     ------
     ValueError
-        If ``n_gamma < 2``.
+        If ``n_gamma < 2`` (before anything is written).
+    NotADirectoryError
+        ``out`` is an existing file.
     """
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     models = list(models or PAPER_MODELS)
     n_crit = FIGURES_CRITICAL["n_gamma"] if n_crit is None else int(n_crit)
     if n_gamma < 2:
         raise ValueError(f"n_gamma must be >= 2, got {n_gamma}")
+    out = make_out_dir(out)   # after the checks: a refused call leaves no directory
     machine = machine_description()
     t0 = time.perf_counter()
     log_progress(progress, "Tables 2-5: the report's gamma grids")
