@@ -286,6 +286,22 @@ def test_paper_values_match_spec_quotes():
             for col, pair in cols.items():
                 if None in pair:
                     assert (key, "a", g, col) in explained
+    for key, cols in pv.TABLE_B.items():
+        for col, triple in cols.items():
+            if None in triple:
+                assert (key, "b", 10.0, col) in explained
+
+
+@pytest.mark.parametrize("printed, entry", [
+    # the report's cells as its copy prints them: a digit or an exponent is lost
+    ("$.11 \\times 10^{-1}$", lambda: pv.TABLE_A["shc"][1.0]["numint"][1]),
+    ("$.84 \\times 10^{-13}$", lambda: pv.TABLE_B["kk"]["numint"][2]),
+])
+def test_paper_values_leave_out_entries_whose_digits_are_lost(printed, entry):
+    """An entry whose leading digit is not printed is unreadable, not a guess counted as
+    reproduced (Table 5(a) SHC g~ = 1 was read as 3.11e-1, from the column beside it)."""
+    assert printed.startswith("$.")
+    assert entry() is None
 
 
 @pytest.mark.parametrize("key", list(pv.PAPER_MODELS))

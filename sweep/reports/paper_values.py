@@ -79,7 +79,7 @@ TABLE_A = {
     "shc": {
         0.0: {"numint": (3.87e-5, 4.26e-3), "approx": (3.87e-5, 4.26e-3)},
         0.05: {"numint": (4.94e-5, 5.39e-3), "approx": (5.84e-5, 5.43e-3)},
-        1.0: {"numint": (2.06e-3, 3.11e-1), "approx": (2.20e-3, 3.11e-1)},
+        1.0: {"numint": (2.06e-3, None), "approx": (2.20e-3, 3.11e-1)},
     },
 }
 
@@ -94,7 +94,7 @@ TABLE_B_EDGES = {
 TABLE_B = {
     "hertz": {"numint": (None, None, 5.63e-13), "approx": (8.03e-5, 1.33e-2, 5.63e-13)},
     "tti": {"numint": (5.56e-8, 3.32e-4, 2.84e-13), "approx": (8.07e-5, 1.76e-2, 2.84e-13)},
-    "kk": {"numint": (1.06e-7, 2.38e-4, 2.84e-13), "approx": (8.11e-5, 2.11e-2, 2.84e-13)},
+    "kk": {"numint": (1.06e-7, 2.38e-4, None), "approx": (8.11e-5, 2.11e-2, 2.84e-13)},
     "shc": {"numint": (3.83e-7, 9.67e-4, 2.34e-13), "approx": (8.57e-5, 2.50e-1, 2.84e-13)},
 }
 
@@ -121,6 +121,18 @@ TRANSCRIPTION_NOTES = {
     ("kk", "a", 0.05, "approx"):
         "Table 4(a), g~ = 0.05, approximated coefficients, gamma >= 0.02: missing from the "
         "copy of the report transcribed here.",
+    ("shc", "a", 1.0, "numint"):
+        "Table 5(a), g~ = 1, gamma >= 0.02, num. coefficients: printed '.11 x 10^-1', its "
+        "first digit lost in the copy of the report transcribed here (the approximated "
+        "column beside it reads 3.11e-1).",
+    ("kk", "b", 10.0, "numint"):
+        "Table 4(b), 'Num.' row: the second maximum reads '2.38 x 1' in the copy of the "
+        "report transcribed here (2.38e-4 in the reading of Table 4 the package was "
+        "specified from), and the third '.84 x 10^-13', its first digit lost (zero to "
+        "rounding either way).",
+    ("tti", "b", 10.0, "approx"):
+        "Table 3(b), 'Approx.' row, third window: printed '2.84 x 10^-5 ... 4 x 10^-13', "
+        "read as 2.84e-13 like the row above it (e = 0 in both there).",
     ("shc", "b", 10.0, "numint"):
         "Table 5(b), third window, 'Num.': printed '2 34 x 10^-13' (2.34e-13 or 2.84e-13); "
         "either way zero to rounding.",
