@@ -6,7 +6,8 @@ measured), :func:`format_value` and :func:`write_table` (CSV at full precision, 
 few digits) and :func:`log_progress`.
 
 Floor 5 (the reports' ground): may import numpy, scipy, numba, matplotlib (lazily) and the
-package's public api (:func:`sweep.integrate`, lazily, to learn numba's threading layer);
+package's public api (:func:`sweep.integrate`, lazily, to learn numba's threading layer)
+and :mod:`sweep.store` (:func:`sweep.store.same_file`, lazily);
 never another report module, the runner's command line or argparse.
 """
 from __future__ import annotations
@@ -42,8 +43,10 @@ def make_out_dir(out: str | os.PathLike, dataset: str | os.PathLike | None = Non
     NotADirectoryError
         ``out`` is an existing file: one line saying so, not mkdir's "File exists".
     """
+    from sweep import store  # noqa: PLC0415 -- lazily: importing a report stays fast
+
     out = Path(out)
-    if dataset is not None and out.exists() and out.resolve() == Path(dataset).resolve():
+    if dataset is not None and out.exists() and store.same_file(out, dataset):
         raise ValueError("the output directory cannot be the dataset itself")
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(errno.ENOTDIR, "is a file, not an output directory",
