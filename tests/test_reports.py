@@ -383,6 +383,12 @@ def test_paper_report_files(tmp_path):
     assert crit["relerr"][-1] > 0.3
     np.testing.assert_allclose(crit["approx"], 0.30522 * crit["gamma"] ** (-6 / 11),
                                rtol=1e-4)
+    # The CSV's two curves (main axes, gamma <= 0.01 inset) share gamma values: each row
+    # says which it belongs to, and each curve's gamma increases.
+    table = _read_csv(out / "paper_critical.csv")
+    for curve, top in (("main", 1.0), ("inset", 0.01)):
+        g = [float(r["gamma"]) for r in table if r["curve"] == curve]
+        assert len(g) == 6 and g == sorted(g) and abs(g[-1] - top) < 1e-12, curve
 
 
 def test_paper_reproduction_summary_counts_and_explains(monkeypatch, capsys):

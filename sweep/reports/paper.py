@@ -380,7 +380,8 @@ def _error_figure(path, key, sweeps):
     axes.flat[0].legend(fontsize=8)
     fig.suptitle(f"{name} (alpha = {a:g}, beta = {b:g}): O(gamma^2) approximation (36) "
                  f"against the numerical CoR\ndotted: the report's window edges; errors "
-                 f"below 1e-17 (both e = 0) drawn at 1e-17", fontsize=10)
+                 f"below 1e-17 (both e exact: 1 at gamma = 0, or both 0) drawn at 1e-17",
+                 fontsize=10)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -415,13 +416,15 @@ def _critical_rows(crit):
 
 def _critical_table(out, crit, crit_rows, n_crit):
     """Write the g~_c curves (CSV); return the markdown summary of Figures 8-11."""
-    write_table([{"model": k, "gamma": g, "gtilde_c_numeric": n, "gtilde_c_24": a,
-                  "rel_error": r}
+    # Two curves a model (the figure's main axes and its gamma <= 0.01 inset), which share
+    # gamma values: the column says which.
+    write_table([{"model": k, "curve": "inset" if tag else "main", "gamma": g,
+                  "gtilde_c_numeric": n, "gtilde_c_24": a, "rel_error": r}
                  for k, d in crit.items()
                  for tag in ("", "_zoom")
                  for g, n, a, r in zip(d[f"gamma{tag}"], d[f"numeric{tag}"],
                                        d[f"approx{tag}"], d[f"relerr{tag}"])],
-                ["model", "gamma", "gtilde_c_numeric", "gtilde_c_24", "rel_error"],
+                ["model", "curve", "gamma", "gtilde_c_numeric", "gtilde_c_24", "rel_error"],
                 out / "paper_critical.csv")
     return write_table(
         crit_rows, ["figure", "model", "gamma_range", "n_gamma", "min_rel_error",
