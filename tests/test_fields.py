@@ -66,3 +66,41 @@ def test_deep_well_stick_keeps_the_undamped_turn_where_exact():
     ref = first_turn(*point)
     assert np.isfinite(ref)
     assert abs(float(sweep.integrate(*point).u_max) / ref - 1.0) < 1e-9
+
+
+def _mixed_draw(n=600, seed=5):
+    rng = np.random.default_rng(seed)
+    a, b = rng.uniform(1.0, 3.0, (2, n))
+    a[: n // 8], b[n // 8: n // 4] = 1.0, 1.0
+    gamma = 10.0 ** rng.uniform(-6.0, 3.0, n)
+    gtilde = np.where(rng.random(n) < 0.25, 0.0, 10.0 ** rng.uniform(-4.0, 12.0, n))
+    return a, b, gamma, gtilde
+
+
+def test_fields_mean_what_the_registry_says():
+    r = sweep.integrate(*_mixed_draw())
+    ok = r.status == Status.OK
+    no_rebound = (r.status == Status.STUCK) | (r.status == Status.AT_REST)
+    assert np.array_equal(r.sticks, no_rebound)
+    assert np.all(np.isfinite(r.t_f[ok]) & (r.t_f[ok] > 0) & np.isfinite(r.u_max[ok]))
+    assert np.all(r.status[np.isinf(r.t_f)] == Status.AT_REST)   # only creeps
+    assert not np.any(np.isnan(r.t_f))                            # every point is valid
+    assert np.all(np.isfinite(r.e_err) & (r.e_err >= 0))
+
+
+# Rebounds of every kind, light to heavy damping, loads from 0 to 1e6 (T_f, u_M of the
+# extended-precision reference, which neither jumps nor stops early at these points).
+REBOUNDS = [(1.5, 1.5, 0.1, 0.5), (2.835, 1.079, 3.64e-6, 662.3), (1.0, 1.0, 1.123e-5, 22.61),
+            (2.964, 1.0, 4.733e-8, 6.764e5), (1.028, 2.579, 64.74, 7.932e-3),
+            (1.0, 2.45, 51.31, 0.0)]
+
+
+@pytest.mark.parametrize("point", REBOUNDS)
+def test_contact_time_and_compression_of_a_rebound(point):
+    reference_hp = pytest.importorskip("reference_hp")
+    ref = reference_hp.solve(*point)
+    assert ref["status"] == reference_hp.OK and not ref["jumped"]
+    r = sweep.integrate(*point)
+    assert int(r.status) == Status.OK
+    assert abs(float(r.t_f) / ref["t_f"] - 1.0) < 1e-9, (float(r.t_f), ref["t_f"])
+    assert abs(float(r.u_max) / ref["u_max"] - 1.0) < 1e-9, (float(r.u_max), ref["u_max"])
