@@ -630,12 +630,20 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
           "the step budget ran out before the outcome was decided (status)", derived=_sticks, flags={"rebounds": 0, "sticks": 1}),
     Field("t_f", np.dtype(np.float64), "impact duration T_f",
           "scaled time T_f at the end of the impact (report eq. (3)), in units of T of "
-          "eq. (2); inf where the bead creeps for ever, or longer than double precision "
-          "can count", fill_value=math.nan),
+          "eq. (2), where the bead rebounds (status ok). Where it does not (stuck, at_rest), "
+          "the time at which the integration decided so (a trough, the energy spent, the "
+          "rest box, or e below its error bound, which depends on tol), not a physical end; "
+          "for a deep load well decided without a march, the undamped swing's duration; inf "
+          "where the bead creeps for ever, or where a creep's slide along its slow branch "
+          "was not followed (its landing point or duration beyond double precision, though "
+          "it may leave at a finite time with an e below it); where the budget ran out, the "
+          "time reached", fill_value=math.nan),
     Field("u_max", np.dtype(np.float64), "maximum compression u_M",
           "scaled maximum compression u(tau_0) where v = 0 (Algorithm 1, phase 1), in units "
           "of delta = v0 T of eq. (2); NaN where the point was decided before it (a bead "
-          "that sticks while still compressing: heavily damped or overdamped)",
+          "that sticks while still compressing: heavily damped or overdamped; a deep load "
+          "well that sticks, unless the damping is too weak to move the undamped swing's "
+          "value) or the step budget ran out before it",
           fill_value=math.nan),
     Field("n_steps", np.dtype(np.int32), "number of integration steps",
           "Runge-Kutta steps taken to integrate eq. (4) for this point"),

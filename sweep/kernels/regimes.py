@@ -25,7 +25,10 @@ integrator.
   all ``gamma' < eps^2 / (2 J)``, so both are O(eps^2) and the law is exact to
   ``|delta e^2| <~ eps^2`` (measured: 0.5 eps^2 on the linear law's closed form). It is
   used where ``eps^2 < DEEP_WELL_EPS2``, beyond the depth where the march can resolve the
-  bead's energy at the rim against the depth of the well in double precision.
+  bead's energy at the rim against the depth of the well in double precision. ``T_f`` and
+  ``u_max`` are the undamped swing's (exact to O(gamma') where it rebounds); a bead that
+  sticks, at any gamma', gets ``u_max`` NaN (not computed) unless gamma' is too small to move
+  it (:data:`STUCK_UMAX_LOG_SHIFT`).
 
 Owns: those decisions. May import: contact, special, registry.
 """
@@ -46,6 +49,10 @@ __all__ = ["undamped", "linear_overdamped", "creeps_from_start", "deep_well",
 #: law's error (~eps^2 in e^2) is below 1e-14, while the march's resolution of the rim energy
 #: is ~1e-16 of the well depth 1/eps^2.
 DEEP_WELL_EPS2 = 1e-14
+#: ln of the largest relative shift of the first swing's depth by the damping for which a
+#: sticking deep-well point still reports the undamped u_max (1e-13: the march's own
+#: u_max is good to ~1e-11).
+STUCK_UMAX_LOG_SHIFT = math.log(1e-13)
 
 _OK = int(Status.OK)
 _STUCK = int(Status.STUCK)
@@ -109,6 +116,22 @@ def creeps_from_start(c):
 
 
 @jit(inline="always")
+def _stuck_umax(c, log_g, u_max):
+    """u_max of a deep-well point that sticks: the undamped ``u_max`` where the damping
+    cannot move it, else NaN (not computed). A rebound needs ``gamma' < eps^2``, so the
+    undamped swing is exact to rounding there; a stick allows any gamma', and the first
+    swing's depth falls by ``c(alpha, beta) gamma'`` relative (measured by DOP853 on the
+    scaled well: c = 0.31 to 2.9 for alpha, beta in [1, 3]; bounded here by ``beta 2^beta``),
+    up to an overdamped sinking that never turns (KK at g~ = 1e10, gamma = 1, gamma' = 46:
+    1.84 u-bar undamped, 1.00 u-bar damped)."""
+    log_gp = math.log(c.gamma) + (2.0 * c.beta - c.alpha - 1.0) / (2.0 * c.alpha) * log_g
+    log_c = math.log(c.beta) + c.beta * math.log(2.0)
+    if log_gp + log_c < STUCK_UMAX_LOG_SHIFT:
+        return u_max
+    return _NAN
+
+
+@jit(inline="always")
 def deep_well(c):
     """Very large loads (module docstring): the large-load law (23) with its error bound."""
     if not (c.gtilde > 0.0):
@@ -123,7 +146,7 @@ def deep_well(c):
     t_f = undamped_duration(c.alpha, c.gtilde)
     u_max = umax_undamped(c.alpha, c.gtilde, c.ka)
     if log_loss >= 0.0:
-        return True, 0.0, t_f, u_max, _STUCK, 0.0
+        return True, 0.0, t_f, _stuck_umax(c, log_g, u_max), _STUCK, 0.0
     e2 = -math.expm1(log_loss)
     e = math.sqrt(e2)
     # |delta e^2| <~ eps^2 (module docstring): delta e <~ eps^2 / e, and never above eps.
