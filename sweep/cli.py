@@ -23,9 +23,10 @@ Exit status: 0 success; 1 an error: invalid configuration, refused resume or pre
 output locked by another run, unreadable dataset, a file system or scheduler fault; 2 bad
 arguments; 130 interrupted, 143 terminated by SIGTERM (the finished chunks are kept; rerun
 the same command, less ``--restart``, to resume); 141 the reader of the output left
-(``sweep info X | head``: nothing is said, as for a command killed by SIGPIPE). ``sweep run`` whose stderr fails
-midway (``2>&1 | head``, ``2>/dev/full``) drops its messages and progress from there on
-and finishes: 0 with the file complete, as if it had been ``--quiet``. Every error is one
+(``sweep info X | head``: nothing is said, as for a command killed by SIGPIPE). ``sweep
+run`` whose stderr fails midway (``2>&1 | head``, ``2>/dev/full``) drops its messages and
+progress from there on and finishes: 0 with the file complete, as if it had been
+``--quiet``. Every error is one
 line on stderr naming the file, value or address and the cause; ``--debug`` (before or
 after the subcommand) shows the traceback instead.
 ``python -m sweep`` is the same command (:mod:`sweep.__main__`).

@@ -627,7 +627,8 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
     Field("sticks", np.dtype(np.bool_), "bead does not rebound",
           "true if the impact ends without rebound, e = 0 (Algorithm 1, phase 3: v = 0 with "
           "u > 0, or converged to rest); false if it rebounds, if the point is invalid, or if "
-          "the step budget ran out before the outcome was decided (status)", derived=_sticks, flags={"rebounds": 0, "sticks": 1}),
+          "the step budget ran out before the outcome was decided (status)",
+          derived=_sticks, flags={"rebounds": 0, "sticks": 1}),
     Field("t_f", np.dtype(np.float64), "impact duration T_f",
           "scaled time T_f at the end of the impact (report eq. (3)), in units of T of "
           "eq. (2), where the bead rebounds (status ok). Where it does not (stuck, at_rest), "
