@@ -254,9 +254,10 @@ def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
         (per point, the cheapest of them whose validated error bound is within ``tol``;
         :mod:`sweep.auto`).
     **options
-        The method's options (:attr:`sweep.registry.Method.options`): ``steps``,
-        ``rest_tol``, ``max_steps`` for ``"numeric"``; ``n`` for ``"ord2_approx"``; ``tol``
-        and the integrator's options for ``"auto"``.
+        The method's options (:attr:`sweep.registry.Method.options`): those of
+        :func:`integrate` for ``"numeric"`` (``tol``, ``steps``, ``rest_tol``, ``max_steps``,
+        ``refine``, ``device``, and ``parallel``); ``n`` for ``"ord2_approx"``; ``tol`` and
+        the integrator's options for ``"auto"``. Any other is a ``ValueError`` naming it.
 
     Returns
     -------
