@@ -308,3 +308,15 @@ def test_chebyshev_order_matters():
     _, mq = S.jm_quadrature(alpha, beta, t)
     errs = [abs(_cheb(alpha, beta, t, n)[1] / mq - 1) for n in (1, 5, 21)]
     assert errs[0] > errs[1] > errs[2]
+
+
+def test_log_abs_gamma_against_scipy():
+    """ln |Gamma(x + i y)| (the kappa = 0 duration's) against scipy's complex loggamma."""
+    from scipy.special import loggamma
+
+    from sweep.kernels.special import log_abs_gamma
+
+    for x in (0.05, 0.5, 0.6, 0.9, 1.0, 1.3, 5.0, 12.0):
+        for y in (0.0, 1e-3, 0.5, 3.0, 30.0, 300.0, 3e3, 3e4, 3e6):
+            want = loggamma(complex(x, y)).real
+            assert abs(log_abs_gamma(x, y) - want) <= 1e-14 * max(1.0, abs(want)), (x, y)

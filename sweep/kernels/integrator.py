@@ -50,7 +50,8 @@ from sweep.kernels.lanes import N_ENDING, ending_at, march_lanes
 from sweep.kernels.march import march
 from sweep.kernels.balance import ROUNDING
 from sweep.kernels.outcome import decide
-from sweep.kernels.regimes import creeps_from_start, deep_well, linear_overdamped, undamped
+from sweep.kernels.regimes import (creeps_from_start, deep_well, kappa_zero_free,
+                                    linear_overdamped, undamped)
 from sweep.kernels.stepsize import policy, resolution
 from sweep.registry import METHODS, Status, kernel_fields
 
@@ -132,6 +133,8 @@ def _regime(c):
         d = linear_overdamped(c)
     if not d[0]:
         d = creeps_from_start(c)
+    if not d[0]:
+        d = kappa_zero_free(c)
     if not d[0]:
         d = deep_well(c)
     return d
