@@ -114,3 +114,17 @@ def test_a_derived_field_added_through_the_registry_alone():
     finally:
         registry.unregister_field("kinetic_ratio")
     assert not hasattr(sweep.integrate(1.5, 1.5, 0.1, 0.2), "kinetic_ratio")
+
+
+def test_a_registered_method_reaches_the_accuracy_report():
+    # After the api was imported, as in a session: its APPROXIMATIONS is a snapshot.
+    xr = pytest.importorskip("xarray")
+    from sweep.reports.accuracy import load_errors
+
+    assert sweep.api.APPROXIMATIONS
+    ds = xr.Dataset({"e_numeric": ("gamma", [0.9, 0.8]), "e_dummy": ("gamma", [0.5, 0.5])},
+                    coords={"alpha": 1.5, "beta": 1.5, "gamma": [0.1, 0.2], "gtilde": 0.0})
+    with dummy_method():
+        data = load_errors(ds)
+    assert data["methods"] == ["dummy"]
+    np.testing.assert_allclose(data["errors"]["dummy"], [0.4, 0.3])
