@@ -571,9 +571,17 @@ def method_fields() -> dict[str, tuple[str, Field]]:
 
 
 def register_method(m: Method) -> None:
-    """Add a method; ``sweep.cor``, configurations and datasets accept it at once."""
+    """Add a method; ``sweep.cor``, configurations and datasets accept it at once.
+
+    Raises
+    ------
+    ValueError
+        The name is registered, or a variable it stores (``e_<name>``, ``error_<name>``, its
+        fields) is a name already in use (method "err" would store e_err, a field).
+    """
     if m.name in METHODS:
         raise ValueError(f"method {m.name!r} is already registered")
+    _refuse_taken("method", m.name, (f"e_{m.name}", f"error_{m.name}", *(f.name for f in m.fields)))
     METHODS[m.name] = m
 
 
@@ -671,15 +679,39 @@ def kernel_fields() -> tuple[Field, ...]:
 
 
 def register_field(f: Field) -> None:
-    """Add an output field (its kernel must fill it, or ``derived`` compute it)."""
+    """Add an output field (its kernel must fill it, or ``derived`` compute it).
+
+    Raises
+    ------
+    ValueError
+        The name is registered, or already in use by a dataset variable (``e_ord1``).
+    """
     if f.name in FIELDS:
         raise ValueError(f"field {f.name!r} is already registered")
+    _refuse_taken("field", f.name, (f.name,))
     FIELDS[f.name] = f
 
 
 def unregister_field(name: str) -> None:
     """Remove a field added by :func:`register_field`."""
     FIELDS.pop(name)
+
+
+def _variables_in_use() -> set[str]:
+    """Every per-point name a dataset may hold now: parameters, physical inputs, fields and
+    each method's variables."""
+    names = set(PARAMETER_NAMES) | set(PHYSICAL) | set(FIELDS) | set(method_fields())
+    for name in METHODS:
+        names |= {f"e_{name}", f"error_{name}"}
+    return names
+
+
+def _refuse_taken(kind: str, name: str, stored: tuple[str, ...]) -> None:
+    # Two entries storing one variable: the dataset would hold one of them, or a KeyError.
+    clash = sorted(set(stored) & _variables_in_use())
+    if clash:
+        raise ValueError(f"{kind} {name!r} would store {', '.join(clash)}, a name already "
+                         "in use in datasets")
 
 
 def variable_names(methods: tuple[str, ...], fields: tuple[str, ...]) -> tuple[str, ...]:

@@ -128,3 +128,26 @@ def test_a_registered_method_reaches_the_accuracy_report():
         data = load_errors(ds)
     assert data["methods"] == ["dummy"]
     np.testing.assert_allclose(data["errors"]["dummy"], [0.4, 0.3])
+
+
+@pytest.mark.parametrize("name, clash", [("err", "e_err"), ("ord1", "already registered")])
+def test_a_method_storing_a_name_in_use_is_refused(name, clash):
+    # Method "err" stores e_err, the integrator's error field: sweep.run raised a KeyError.
+    m = registry.Method(name, "coefficient of restitution, x", "x", "(none)", _half)
+    try:
+        with pytest.raises(ValueError, match=clash):
+            registry.register_method(m)
+    finally:  # a failure must not leave it registered for the tests after
+        if registry.METHODS.get(name) is m:
+            registry.unregister_method(name)
+
+
+@pytest.mark.parametrize("name", ["e_ord1", "error_ord1", "method_used", "gamma", "k"])
+def test_a_field_storing_a_name_in_use_is_refused(name):
+    f = registry.Field(name, np.dtype(np.float64), "x", "x", derived=lambda fields: fields["e"])
+    try:
+        with pytest.raises(ValueError, match=name):
+            registry.register_field(f)
+    finally:
+        if registry.FIELDS.get(name) is f:
+            registry.unregister_field(name)
