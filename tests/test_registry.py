@@ -151,3 +151,16 @@ def test_a_field_storing_a_name_in_use_is_refused(name):
     finally:
         if registry.FIELDS.get(name) is f:
             registry.unregister_field(name)
+
+
+def test_the_result_class_follows_the_registered_fields():
+    first = sweep.IntegrationResult
+    f = registry.Field("kinetic_ratio", np.dtype(np.float64), "kinetic energy ratio", "e^2",
+                       derived=lambda fields: fields["e"] ** 2)
+    registry.register_field(f)
+    try:
+        assert isinstance(sweep.integrate(1.5, 1.5, 0.1, 0.2), sweep.IntegrationResult)
+    finally:
+        registry.unregister_field("kinetic_ratio")
+    # Nothing left behind: the class of the built-in fields again.
+    assert type(sweep.integrate(1.5, 1.5, 0.1, 0.2)) is first is sweep.IntegrationResult
