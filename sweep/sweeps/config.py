@@ -630,8 +630,10 @@ def _parse_material(tab, name):
     _either(tab, "m", ("radius", "density"), "density")
     _either(tab, "k", ("radius", "E", "nu"), "floor")
     props = {key: _physical(tab, key, None) for key in ("m", "k") + _MATERIAL_KEYS}
-    if props["k"] is None and alpha != 1.5:
-        tab.error("E", "Hertz stiffness (from radius, E, nu) needs alpha = 1.5", alpha)
+    hertz_alpha = registry.MODELS["hertz"][0]  # materials.HERTZ_ALPHA, without numba
+    if props["k"] is None and alpha != hertz_alpha:
+        tab.error("E", f"Hertz stiffness (from radius, E, nu) needs alpha = {hertz_alpha:g}",
+                  alpha)
     floor_E, floor_nu = _scene_floor(tab.table("floor"))
     gamma0, damping = _scene_damping(tab, (alpha, beta))
     _refuse_unused(tab, props, dict(damping).get("model"))
