@@ -70,8 +70,8 @@ class Status(enum.IntEnum):
     #: The step budget ran out before the outcome was decided. ``e = sqrt(2 H)``, the bound
     #: on the rebound speed set by the energy still available, not a converged value.
     BUDGET_EXHAUSTED = 3
-    #: Invalid input (alpha < 1, beta < 1, gamma < 0 or > 1e300, g~ < 0, non-finite, or an
-    #: approximation used outside its domain): ``e = NaN``.
+    #: Invalid input (outside the domain of :data:`PARAMETERS`, or an approximation used
+    #: outside its own): ``e = NaN``.
     INVALID = 4
 
 
@@ -154,6 +154,8 @@ class Parameter:
 
 
 _UNIQUENESS = ">= 1 (uniqueness is not known below 1)"
+# gamma's upper bound, which its rule (the error messages) also says.
+_GAMMA_MAX = 1e300
 
 #: The four scaled numbers of eq. (2), in dataset dimension order.
 PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
@@ -165,8 +167,9 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               1.0, rule=_UNIQUENESS),
     Parameter("gamma", "scaled damping gamma",
               "gamma = gamma0 v0^(2 beta/(alpha+1) - 1) (k/m)^(1 - beta/(alpha+1)), "
-              "report eq. (2)", 0.0, rule=">= 0 and <= 1e300 (beyond, the damping rate "
-              "gamma beta u^(beta-1) overflows)", maximum=1e300),
+              "report eq. (2)", 0.0, rule=f">= 0 and <= {_GAMMA_MAX:g} (beyond, the "
+              "damping rate gamma beta u^(beta-1) overflows)".replace("e+", "e"),
+              maximum=_GAMMA_MAX),
     Parameter("gtilde", "scaled load g~",
               "g~ = (m/k)^(1/(alpha+1)) v0^(-2 alpha/(alpha+1)) (g + F/m), report eq. (2)",
               0.0, rule=">= 0 (a compressive load)"),

@@ -164,3 +164,11 @@ def test_the_result_class_follows_the_registered_fields():
         registry.unregister_field("kinetic_ratio")
     # Nothing left behind: the class of the built-in fields again.
     assert type(sweep.integrate(1.5, 1.5, 0.1, 0.2)) is first is sweep.IntegrationResult
+
+
+def test_each_rule_states_its_maximum():
+    # A rule is the error message's domain: a maximum changed alone would leave it stale.
+    for domain in (registry.PARAMETERS, registry.PHYSICAL, registry.MATERIAL):
+        for p in domain.values():
+            if np.isfinite(p.maximum):
+                assert f"{p.maximum:g}".replace("e+", "e") in p.rule, p.name
