@@ -54,8 +54,8 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     [outputs]
     e = ["numeric", "ord1"]        # or "all": every method defined on the whole design (sp:
                                    # alpha = beta = 1.5 only) but "auto"; variables e_<method>
-    fields = ["status", "error_ord1"]   # or "all" (sticks, t_f, u_max, n_steps, status,
-                                        # error_<m> for every approximation in e)
+    fields = ["status", "error_ord1"]   # or "all": sweep.registry.integrator_fields() (e_err
+                                        # too), error_<m> for every approximation in e
 
     [integrator]                   # passed to sweep.api.integrate
     steps = 64                     # per half period of the linearised motion
