@@ -37,6 +37,8 @@ _OWNERS = {
     "lookup": "sweep.tables", "run": "sweep.sweeps.dataset",
     "CaveatWarning": "sweep.sweeps.runner",
 }
+#: Names read from their owner at every use: registry.register_field rebuilds the class.
+_LIVE = frozenset({"IntegrationResult"})
 
 __all__ = ["__version__", "MODELS", "Status", "scale", "integrate", "cor", "cor_with_status",
            "cor_fields", "lookup", "run",
@@ -51,7 +53,8 @@ def __getattr__(name: str):
     # when this package imported the api itself), loads on first use.
     if name in _OWNERS:
         value = getattr(importlib.import_module(_OWNERS[name]), name)
-        globals()[name] = value
+        if name not in _LIVE:
+            globals()[name] = value
         return value
     if not name.startswith("__"):
         try:

@@ -55,13 +55,18 @@ def _result_class() -> type:
 
 
 IntegrationResult = _result_class()
+# One class per set of fields: a field registered, then unregistered, gives the first class
+# back (isinstance against a class imported before still holds).
+_RESULT_CLASSES = {tuple(registry.FIELDS): IntegrationResult}
 
 
 def _result_type() -> type:
-    """:class:`IntegrationResult`, rebuilt when a field was registered after import."""
+    """:class:`IntegrationResult` for the fields registered now (``register_field``)."""
     global IntegrationResult
-    if tuple(f.name for f in dataclasses.fields(IntegrationResult)) != tuple(registry.FIELDS):
-        IntegrationResult = _result_class()
+    names = tuple(registry.FIELDS)
+    if names not in _RESULT_CLASSES:
+        _RESULT_CLASSES[names] = _result_class()
+    IntegrationResult = _RESULT_CLASSES[names]
     return IntegrationResult
 
 

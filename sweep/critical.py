@@ -15,9 +15,10 @@ Above the critical scaled load ``g~_c(alpha, beta, gamma)`` (resp. damping
     the bead rebounds below the threshold and not above it (e decreases with g~ and gamma,
     reaching 0 like the square root of the distance to the threshold, SPEC section 7).
     The bracket grows from (24) by factors of 4, then (where (24) is far off: small g~,
-    creep) by factors that square each step, down to 1e-300 and up to 1e300. Returns
+    creep) by factors that square each step, down to 1e-300 and up to 1e300 (or the top of
+    the unknown's domain in :data:`sweep.registry.PARAMETERS`, where lower). Returns
     ``0.0`` where it does not rebound even at 1e-300, ``inf`` where it still rebounds at
-    1e300, and NaN where the integrator could not decide (budget exhausted) during the
+    that top, and NaN where the integrator could not decide (budget exhausted) during the
     search. A rebound below the integrator's ``e_err``
     (1e-9 at the defaults; ``tol`` lowers it) counts as none: the search finds where e
     falls below that. At g~ = 0, gamma_c is the theory's where it has one (docs/creep.md,
@@ -44,7 +45,7 @@ __all__ = ["critical_gtilde", "critical_gamma", "RTOL"]
 RTOL = 1e-8
 _FACTOR = 4.0        # bracket expansion factor
 _MAX_EXPAND = 20     # steps at _FACTOR (4^20 ~ 1e12 from (24)); beyond, the factor squares
-_LOWEST, _HIGHEST = 1e-300, 1e300   # the bracket's ends: below, 0; above, inf (gamma's max)
+_LOWEST, _HIGHEST = 1e-300, 1e300   # the bracket's ends: below, 0; above, inf
 _METHODS = ("approx", "numeric")
 
 
@@ -66,15 +67,21 @@ def _rebounds(alpha, beta, gamma, gtilde, options):
     return rebound, rebound | stuck
 
 
-def _next_trial(x0, lo, hi, expansions):
+def _top(unknown):
+    """The bracket's top for ``unknown``: 1e300, or the maximum of its domain where lower
+    (gamma's, :data:`sweep.registry.PARAMETERS`): a trial above it is an invalid point."""
+    return min(_HIGHEST, registry.PARAMETERS[unknown].maximum)
+
+
+def _next_trial(x0, lo, hi, expansions, top):
     """The next bracketing trial: ``x0`` first, then ``lo`` times (``hi`` over) a factor,
-    4 for ``_MAX_EXPAND`` steps, squaring each step beyond, kept in [1e-300, 1e300]."""
+    4 for ``_MAX_EXPAND`` steps, squaring each step beyond, kept in [1e-300, top]."""
     extra = np.maximum(expansions - _MAX_EXPAND, 0)
     factor = np.exp(np.log(_FACTOR) * 2.0 ** np.minimum(extra, 16))   # inf beyond 4^2^9
     with np.errstate(over="ignore"):
         x = np.where((lo == 0.0) & np.isinf(hi), x0,
                      np.where(np.isinf(hi), lo * factor, hi / factor))
-    return np.clip(x, _LOWEST, _HIGHEST)
+    return np.clip(x, _LOWEST, top)
 
 
 def _geometric_mid(lo, hi):
@@ -86,11 +93,12 @@ def _geometric_mid(lo, hi):
     return np.where(outside, np.sqrt(lo) * np.sqrt(hi), mid)
 
 
-def _threshold(evaluate, start, fallback_start):
+def _threshold(evaluate, start, fallback_start, top):
     """Vectorised bracketing + geometric bisection for the smallest x without rebound.
 
     ``evaluate(x, idx) -> (rebound, decided)`` for the points ``idx`` at trial values ``x``.
-    ``start``: approximate thresholds (``fallback_start`` where not finite and positive).
+    ``start``: approximate thresholds (``fallback_start`` where not finite and positive);
+    ``top``: the bracket's upper end (:func:`_top`).
     """
     size = start.size
     x0 = np.where(np.isfinite(start) & (start > 0.0), start, fallback_start)
@@ -118,13 +126,13 @@ def _threshold(evaluate, start, fallback_start):
         # rebound up to 1e300 is inf (the search stopped at 1e12 from (24) and returned 0
         # where (24) is 1e15 too high, g~ = 1e-9 for KK, while the bead rebounds there).
         none_down = need & (lo == 0.0) & (hi <= _LOWEST)
-        all_up = need & np.isinf(hi) & (lo >= _HIGHEST)
+        all_up = need & np.isinf(hi) & (lo >= top)
         out[none_down], out[all_up] = 0.0, np.inf
         active &= ~(none_down | all_up)
         idx = np.flatnonzero(need & ~(none_down | all_up))
         if idx.size == 0:
             break
-        probe(idx, _next_trial(x0[idx], lo[idx], hi[idx], expansions[idx]))
+        probe(idx, _next_trial(x0[idx], lo[idx], hi[idx], expansions[idx], top))
         expansions[idx] += 1
     # Bisect in log space until hi/lo - 1 <= RTOL.
     while True:
@@ -184,10 +192,10 @@ def _critical(unknown, alpha, beta, known, method, options):
 
     if unknown == "gtilde":
         # gamma = 0 never sticks: g~_c = inf; the search starts from (24) elsewhere.
-        out = _threshold(evaluate, np.where(x > 0.0, approx, np.nan), np.nan)
+        out = _threshold(evaluate, np.where(x > 0.0, approx, np.nan), np.nan, _top(unknown))
         out[valid & (x == 0.0)] = np.inf
     else:
-        out = _threshold(evaluate, approx, np.where(valid, 1.0, np.nan))
+        out = _threshold(evaluate, approx, np.where(valid, 1.0, np.nan), _top(unknown))
         exact = _gamma_c_at_zero_load(a, be)
         known_zero = valid & (x == 0.0) & ~np.isnan(exact)
         out[known_zero] = exact[known_zero]

@@ -32,8 +32,8 @@ from sweep.model import scale
 __all__ = ["sphere_mass", "effective_modulus", "hertz_stiffness", "kuwabara_kono_gamma0",
            "tsuji_gamma0", "gamma0_for_cor", "HERTZ_ALPHA", "TSUJI"]
 
-#: The stiffness exponent of Hertz's sphere-on-flat contact.
-HERTZ_ALPHA = 1.5
+#: The stiffness exponent of Hertz's sphere-on-flat contact (the registry's Hertz law).
+HERTZ_ALPHA = registry.MODELS["hertz"][0]
 #: Exponents of the Tsuji-Tanaka-Ishida law (report Table 1).
 TSUJI = registry.MODELS["tti"]
 

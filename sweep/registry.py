@@ -70,8 +70,8 @@ class Status(enum.IntEnum):
     #: The step budget ran out before the outcome was decided. ``e = sqrt(2 H)``, the bound
     #: on the rebound speed set by the energy still available, not a converged value.
     BUDGET_EXHAUSTED = 3
-    #: Invalid input (alpha < 1, beta < 1, gamma < 0 or > 1e300, g~ < 0, non-finite, or an
-    #: approximation used outside its domain): ``e = NaN``.
+    #: Invalid input (outside the domain of :data:`PARAMETERS`, or an approximation used
+    #: outside its own): ``e = NaN``.
     INVALID = 4
 
 
@@ -154,6 +154,8 @@ class Parameter:
 
 
 _UNIQUENESS = ">= 1 (uniqueness is not known below 1)"
+# gamma's upper bound, which its rule (the error messages) also says.
+_GAMMA_MAX = 1e300
 
 #: The four scaled numbers of eq. (2), in dataset dimension order.
 PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
@@ -165,8 +167,9 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               1.0, rule=_UNIQUENESS),
     Parameter("gamma", "scaled damping gamma",
               "gamma = gamma0 v0^(2 beta/(alpha+1) - 1) (k/m)^(1 - beta/(alpha+1)), "
-              "report eq. (2)", 0.0, rule=">= 0 and <= 1e300 (beyond, the damping rate "
-              "gamma beta u^(beta-1) overflows)", maximum=1e300),
+              "report eq. (2)", 0.0, rule=f">= 0 and <= {_GAMMA_MAX:g} (beyond, the "
+              "damping rate gamma beta u^(beta-1) overflows)".replace("e+", "e"),
+              maximum=_GAMMA_MAX),
     Parameter("gtilde", "scaled load g~",
               "g~ = (m/k)^(1/(alpha+1)) v0^(-2 alpha/(alpha+1)) (g + F/m), report eq. (2)",
               0.0, rule=">= 0 (a compressive load)"),
@@ -571,9 +574,17 @@ def method_fields() -> dict[str, tuple[str, Field]]:
 
 
 def register_method(m: Method) -> None:
-    """Add a method; ``sweep.cor``, configurations and datasets accept it at once."""
+    """Add a method; ``sweep.cor``, configurations and datasets accept it at once.
+
+    Raises
+    ------
+    ValueError
+        The name is registered, or a variable it stores (``e_<name>``, ``error_<name>``, its
+        fields) is a name already in use (method "err" would store e_err, a field).
+    """
     if m.name in METHODS:
         raise ValueError(f"method {m.name!r} is already registered")
+    _refuse_taken("method", m.name, (f"e_{m.name}", f"error_{m.name}", *(f.name for f in m.fields)))
     METHODS[m.name] = m
 
 
@@ -671,15 +682,39 @@ def kernel_fields() -> tuple[Field, ...]:
 
 
 def register_field(f: Field) -> None:
-    """Add an output field (its kernel must fill it, or ``derived`` compute it)."""
+    """Add an output field (its kernel must fill it, or ``derived`` compute it).
+
+    Raises
+    ------
+    ValueError
+        The name is registered, or already in use by a dataset variable (``e_ord1``).
+    """
     if f.name in FIELDS:
         raise ValueError(f"field {f.name!r} is already registered")
+    _refuse_taken("field", f.name, (f.name,))
     FIELDS[f.name] = f
 
 
 def unregister_field(name: str) -> None:
     """Remove a field added by :func:`register_field`."""
     FIELDS.pop(name)
+
+
+def _variables_in_use() -> set[str]:
+    """Every per-point name a dataset may hold now: parameters, physical inputs, fields and
+    each method's variables."""
+    names = set(PARAMETER_NAMES) | set(PHYSICAL) | set(FIELDS) | set(method_fields())
+    for name in METHODS:
+        names |= {f"e_{name}", f"error_{name}"}
+    return names
+
+
+def _refuse_taken(kind: str, name: str, stored: tuple[str, ...]) -> None:
+    # Two entries storing one variable: the dataset would hold one of them, or a KeyError.
+    clash = sorted(set(stored) & _variables_in_use())
+    if clash:
+        raise ValueError(f"{kind} {name!r} would store {', '.join(clash)}, a name already "
+                         "in use in datasets")
 
 
 def variable_names(methods: tuple[str, ...], fields: tuple[str, ...]) -> tuple[str, ...]:

@@ -166,3 +166,25 @@ def test_thresholds_beyond_1e154_and_subnormal_gamma():
         np.testing.assert_allclose(K.critical_gtilde(1.5, 1.5, gamma, method="numeric"),
                                    hand, rtol=2e-5)
         assert K.critical_gamma(1.5, 1.5, 1e200) == 0.0     # 1/(2 C 1e200^(11/6)) < 1e-324
+
+
+def test_the_bracket_stops_at_the_top_of_gammas_domain(monkeypatch):
+    # The bracket's top is read from the registry: with gamma's domain ending at 1e6, a
+    # bead that rebounds all the way has gamma_c = inf, not NaN from trials above 1e6 (the
+    # integrator's INVALID points, which decide nothing).
+    import dataclasses
+
+    from sweep import registry
+
+    gamma = registry.PARAMETERS["gamma"]
+    monkeypatch.setitem(registry.PARAMETERS, "gamma", dataclasses.replace(gamma, maximum=1e6))
+    trials = []
+
+    def always_rebounds(alpha, beta, gamma, gtilde, options):
+        trials.append(np.asarray(gamma))
+        ok = np.asarray(gamma) <= 1e6
+        return ok, ok
+
+    monkeypatch.setattr(K, "_rebounds", always_rebounds)
+    assert K.critical_gamma(1.5, 1.5, 0.1, method="numeric") == np.inf
+    assert max(t.max() for t in trials) == 1e6

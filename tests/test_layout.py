@@ -2,8 +2,11 @@
 
 The import graph is read from the syntax tree of every module (imports inside functions
 count too: a lazy import upwards is still an upward dependency), with the same resolver the
-kernel cache uses (:func:`sweep.kernels._jit.package_imports`).
+kernel cache uses (:func:`sweep.kernels._jit.package_imports`). What the graph cannot follow
+is checked apart: imports by name at run time (importlib), a low floor's ``import sweep.x``
+(the package then loads any module as an attribute) and the registry's kernel paths.
 """
+import ast
 from pathlib import Path
 
 import pytest
@@ -98,3 +101,48 @@ def test_lower_floors_know_nothing_of_the_other(module):
     bad = [(m, t) for m, imports in _graph().items() if m.startswith(module)
            for t in imports if t.startswith(other)]
     assert not bad
+
+
+#: Modules that import by name at run time, which the syntax tree does not show: the
+#: package's lazy public names (its _OWNERS) and a method's kernel path (Method.resolve).
+DYNAMIC_IMPORTERS = {"sweep", "sweep.registry"}
+
+
+def _trees():
+    return {m: ast.parse(path.read_text(encoding="utf-8"))
+            for m, path in _jit._module_files(ROOT).items()}
+
+
+def _is_dynamic_import(node):
+    if not isinstance(node, ast.Call):
+        return False
+    f = node.func
+    name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", None)
+    return name in ("import_module", "__import__")
+
+
+def test_imports_by_name_only_where_the_graph_knows_them():
+    bad = [m for m, tree in _trees().items() if m not in DYNAMIC_IMPORTERS
+           and any(_is_dynamic_import(node) for node in ast.walk(tree))]
+    assert not bad, f"importlib.import_module / __import__ outside {DYNAMIC_IMPORTERS}: {bad}"
+
+
+def test_no_low_floor_binds_the_package_name():
+    # `import sweep.x` binds `sweep`, whose PEP 562 __getattr__ loads any module on first
+    # use: `sweep.cli.main` from the store would be an upward import the graph misses.
+    bad = [m for m, tree in _trees().items() if _floor(m) < PACKAGE_FLOOR
+           for node in ast.walk(tree) if isinstance(node, ast.Import)
+           for alias in node.names if alias.name.startswith("sweep") and not alias.asname]
+    assert not bad, f"modules below floor {PACKAGE_FLOOR} that `import sweep...`: {bad}"
+
+
+def test_method_kernels_live_where_their_callers_may_import():
+    # Method.kernel is a module path resolved by the api (and auto, its floor): the
+    # registry's pointer must not lead above them.
+    from sweep import registry
+
+    top = FLOORS["sweep.api"]
+    for m in registry.METHODS.values():
+        if isinstance(m.kernel, str):
+            module = m.kernel.partition(":")[0]
+            assert _floor(module) is not None and _floor(module) <= top, (m.name, module)

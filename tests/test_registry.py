@@ -114,3 +114,61 @@ def test_a_derived_field_added_through_the_registry_alone():
     finally:
         registry.unregister_field("kinetic_ratio")
     assert not hasattr(sweep.integrate(1.5, 1.5, 0.1, 0.2), "kinetic_ratio")
+
+
+def test_a_registered_method_reaches_the_accuracy_report():
+    # After the api was imported, as in a session: its APPROXIMATIONS is a snapshot.
+    xr = pytest.importorskip("xarray")
+    from sweep.reports.accuracy import load_errors
+
+    assert sweep.api.APPROXIMATIONS
+    ds = xr.Dataset({"e_numeric": ("gamma", [0.9, 0.8]), "e_dummy": ("gamma", [0.5, 0.5])},
+                    coords={"alpha": 1.5, "beta": 1.5, "gamma": [0.1, 0.2], "gtilde": 0.0})
+    with dummy_method():
+        data = load_errors(ds)
+    assert data["methods"] == ["dummy"]
+    np.testing.assert_allclose(data["errors"]["dummy"], [0.4, 0.3])
+
+
+@pytest.mark.parametrize("name, clash", [("err", "e_err"), ("ord1", "already registered")])
+def test_a_method_storing_a_name_in_use_is_refused(name, clash):
+    # Method "err" stores e_err, the integrator's error field: sweep.run raised a KeyError.
+    m = registry.Method(name, "coefficient of restitution, x", "x", "(none)", _half)
+    try:
+        with pytest.raises(ValueError, match=clash):
+            registry.register_method(m)
+    finally:  # a failure must not leave it registered for the tests after
+        if registry.METHODS.get(name) is m:
+            registry.unregister_method(name)
+
+
+@pytest.mark.parametrize("name", ["e_ord1", "error_ord1", "method_used", "gamma", "k"])
+def test_a_field_storing_a_name_in_use_is_refused(name):
+    f = registry.Field(name, np.dtype(np.float64), "x", "x", derived=lambda fields: fields["e"])
+    try:
+        with pytest.raises(ValueError, match=name):
+            registry.register_field(f)
+    finally:
+        if registry.FIELDS.get(name) is f:
+            registry.unregister_field(name)
+
+
+def test_the_result_class_follows_the_registered_fields():
+    first = sweep.IntegrationResult
+    f = registry.Field("kinetic_ratio", np.dtype(np.float64), "kinetic energy ratio", "e^2",
+                       derived=lambda fields: fields["e"] ** 2)
+    registry.register_field(f)
+    try:
+        assert isinstance(sweep.integrate(1.5, 1.5, 0.1, 0.2), sweep.IntegrationResult)
+    finally:
+        registry.unregister_field("kinetic_ratio")
+    # Nothing left behind: the class of the built-in fields again.
+    assert type(sweep.integrate(1.5, 1.5, 0.1, 0.2)) is first is sweep.IntegrationResult
+
+
+def test_each_rule_states_its_maximum():
+    # A rule is the error message's domain: a maximum changed alone would leave it stale.
+    for domain in (registry.PARAMETERS, registry.PHYSICAL, registry.MATERIAL):
+        for p in domain.values():
+            if np.isfinite(p.maximum):
+                assert f"{p.maximum:g}".replace("e+", "e") in p.rule, p.name

@@ -552,3 +552,15 @@ def test_machine_description_and_tables(tmp_path):
                              formats={"x": "g"})
     assert "| 1.5 | - | 1.23e-07 |" in md
     assert _read_csv(tmp_path / "t.csv") == [{"x": "1.5", "y": "", "z": "1.23456e-07"}]
+
+
+def test_paper_models_take_the_registrys_exponents(monkeypatch):
+    # The report's laws live in sweep.registry.MODELS; the paper's tables name them only.
+    import runpy
+
+    from sweep import registry
+
+    assert all(pv.PAPER_MODELS[k][:2] == registry.MODELS[k] for k in pv.PAPER_MODELS)
+    monkeypatch.setitem(registry.MODELS, "tti", (1.5, 1.3))
+    fresh = runpy.run_path(pv.__file__)
+    assert fresh["PAPER_MODELS"]["tti"][:2] == (1.5, 1.3)

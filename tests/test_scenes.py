@@ -345,3 +345,18 @@ def test_an_unsorted_scene_list_is_written_irregular(tmp_path):
     with xr.open_dataset(out) as ds:
         assert list(ds.v0.values) == [2.0, 0.5, 1.0, 0.3]
         assert ds.v0.attrs["spacing"] == "irregular" and ds.F.attrs["spacing"] == "irregular"
+
+
+def test_hertz_stiffness_needs_the_registrys_hertz_alpha(monkeypatch):
+    # The exponent Hertz's k (radius, E, nu) needs is the registry's Hertz law, read when the
+    # file is parsed (it was a literal 1.5 here and in materials).
+    from sweep import registry
+
+    cubic = PROPERTIES.replace('law = "kk"', 'alpha = 2.0\nbeta = 1.0').replace(
+        'damping = {model = "target_e", e = 0.97, v0 = 1.0}', "gamma0 = 1e-6")
+    with pytest.raises(config.ConfigError, match=r"glass.E: .*needs alpha = 1.5, got 2"):
+        config.loads(cubic)
+    monkeypatch.setitem(registry.MODELS, "hertz", (2.0, 1.0))
+    assert config.loads(cubic).design.materials[0].alpha == 2.0
+    with pytest.raises(config.ConfigError, match=r"glass.E: .*needs alpha = 2, got 1.5"):
+        config.loads(PROPERTIES)

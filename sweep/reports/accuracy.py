@@ -40,7 +40,7 @@ Points whose numerical computation ran out of budget or was invalid are excluded
 region and counted in the ``excluded`` column.
 
 May import: numpy, xarray (lazily), :mod:`sweep.model`, :mod:`sweep.critical`,
-:mod:`sweep.api`, :mod:`sweep.store` (:func:`~sweep.store.open_dataset`) and
+:mod:`sweep.registry` (the methods), :mod:`sweep.store` (:func:`~sweep.store.open_dataset`) and
 :mod:`sweep.reports.common`; matplotlib lazily,
 after :func:`sweep.reports.common.use_agg` has set its backend.
 """
@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from sweep import store
+from sweep import registry, store
 from sweep.model import Status
 from sweep.reports.common import make_out_dir, use_agg, write_table
 
@@ -110,7 +110,7 @@ def load_errors(ds: Any) -> dict[str, Any]:
         ``alpha``, ``beta``, ``gamma``, ``gtilde``, ``sticks`` (bool), ``decided`` (bool:
         the numerical outcome is known, status ok / stuck / at rest), ``errors``
         (method -> ``|e_method - e_numeric|``, NaN where undefined), ``methods`` (in the
-        order of :data:`sweep.api.APPROXIMATIONS`).
+        order of :func:`sweep.registry.approximations`).
 
     Raises
     ------
@@ -119,9 +119,9 @@ def load_errors(ds: Any) -> dict[str, Any]:
         ``error_<method>``), or the run recorded budget-exhausted points
         (``points_budget_exhausted``) that the dataset has no ``status`` to exclude.
     """
-    from sweep.api import APPROXIMATIONS
-
-    methods = [m for m in APPROXIMATIONS
+    # The registry itself, not sweep.api.APPROXIMATIONS (the built-ins when the api was
+    # imported): a method registered later is reported too.
+    methods = [m for m in registry.approximations()
                if f"error_{m}" in ds or (f"e_{m}" in ds and "e_numeric" in ds)]
     if not methods:
         raise ValueError("the dataset holds no approximation error: it needs e_numeric with "

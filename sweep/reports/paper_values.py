@@ -26,9 +26,12 @@ gives the printed edges below to the printed digits (KK: G = 1.1 * 0.0016664 = 0
 0.2 G = 0.000367, 0.92 G = 0.00169). This is also what the authors' published MATLAB
 scripts do (report ref. [38], ``PaperResults/AnalVarCoeffCompare.m``).
 
-Pure data: imports nothing (the command line reads :data:`PAPER_MODELS` for its choices).
+Pure data: imports only the registry's laws (the command line, which has loaded the registry
+already, reads :data:`PAPER_MODELS` for its choices).
 """
 from __future__ import annotations
+
+from sweep.registry import MODELS
 
 __all__ = ["PAPER_MODELS", "GTILDES", "TABLE_A", "TABLE_B", "TABLE_B_EDGES",
            "FIGURES_CRITICAL", "TRANSCRIPTION_NOTES", "WINDOW_FRACTIONS", "GRID_END_FACTOR",
@@ -36,12 +39,13 @@ __all__ = ["PAPER_MODELS", "GTILDES", "TABLE_A", "TABLE_B", "TABLE_B_EDGES",
 
 #: The four contact models of Tables 2-5 and Figures 8-11: key -> (alpha, beta, name, table,
 #: figure of g~_c).
-PAPER_MODELS = {
-    "hertz": (1.5, 1.0, "Hertz + linear damping", "Table 2", "Figure 8"),
-    "tti": (1.5, 1.25, "Tsuji-Tanaka-Ishida", "Table 3", "Figure 9"),
-    "kk": (1.5, 1.5, "Kuwabara-Kono", "Table 4", "Figure 10"),
-    "shc": (1.5, 2.5, "Simon-Hunt-Crossley", "Table 5", "Figure 11"),
-}
+#: The exponents are the registry's (its MODELS are the report's Table 1).
+PAPER_MODELS = {key: (*MODELS[key], *rest) for key, rest in {
+    "hertz": ("Hertz + linear damping", "Table 2", "Figure 8"),
+    "tti": ("Tsuji-Tanaka-Ishida", "Table 3", "Figure 9"),
+    "kk": ("Kuwabara-Kono", "Table 4", "Figure 10"),
+    "shc": ("Simon-Hunt-Crossley", "Table 5", "Figure 11"),
+}.items()}
 
 #: The loads g~ of Tables 2-5 (and of Figures 12-23).
 GTILDES = (0.0, 0.05, 1.0, 10.0)

@@ -54,8 +54,8 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     [outputs]
     e = ["numeric", "ord1"]        # or "all": every method defined on the whole design (sp:
                                    # alpha = beta = 1.5 only) but "auto"; variables e_<method>
-    fields = ["status", "error_ord1"]   # or "all" (sticks, t_f, u_max, n_steps, status,
-                                        # error_<m> for every approximation in e)
+    fields = ["status", "error_ord1"]   # or "all": sweep.registry.integrator_fields() (e_err
+                                        # too), error_<m> for every approximation in e
 
     [integrator]                   # passed to sweep.api.integrate
     steps = 64                     # per half period of the linearised motion
@@ -630,8 +630,10 @@ def _parse_material(tab, name):
     _either(tab, "m", ("radius", "density"), "density")
     _either(tab, "k", ("radius", "E", "nu"), "floor")
     props = {key: _physical(tab, key, None) for key in ("m", "k") + _MATERIAL_KEYS}
-    if props["k"] is None and alpha != 1.5:
-        tab.error("E", "Hertz stiffness (from radius, E, nu) needs alpha = 1.5", alpha)
+    hertz_alpha = registry.MODELS["hertz"][0]  # materials.HERTZ_ALPHA, without numba
+    if props["k"] is None and alpha != hertz_alpha:
+        tab.error("E", f"Hertz stiffness (from radius, E, nu) needs alpha = {hertz_alpha:g}",
+                  alpha)
     floor_E, floor_nu = _scene_floor(tab.table("floor"))
     gamma0, damping = _scene_damping(tab, (alpha, beta))
     _refuse_unused(tab, props, dict(damping).get("model"))
