@@ -26,7 +26,8 @@ Above the critical scaled load ``g~_c(alpha, beta, gamma)`` (resp. damping
     like a power of gamma) and ``2 / sqrt(beta)`` for ``2 beta = alpha + 1`` (the linear
     law's 2, TTI's 1.789).
 
-Owns: the no-rebound thresholds. May import: registry, :mod:`sweep.api` (the floor below).
+Owns: the no-rebound thresholds. May import: registry, :mod:`sweep.api` and
+:mod:`sweep._arrays` (the floor below).
 """
 from __future__ import annotations
 
