@@ -57,9 +57,10 @@ def test_validate_rejects_with_the_key_and_value(cfg, capsys):
 def test_validate_tells_of_a_step_budget_the_resolution_cannot_meet(cfg, capsys):
     # 10^6 steps per half period in a budget of 1,000 steps: every point of the run would be
     # an upper bound, which validate said nothing of (the run warned only at its end).
-    # (gamma > 0: at gamma = 0 e = 1 exactly, without a step)
+    # (gamma > 0 and no 2 beta = alpha + 1: there e is exact at g~ = 0 without a step)
     cfg.write_text(CONFIG.replace("steps = 16", "steps = 1e6\nmax_steps = 1000")
-                   .replace("start = 0.0", "start = 0.02"))
+                   .replace("start = 0.0", "start = 0.02")
+                   .replace("beta = [1.25, 1.5]", "beta = [1.5, 2.0]"))
     assert cli.main(["validate", str(cfg)]) == 0
     out = capsys.readouterr().out
     n = int(out.split("(calibration on ")[1].split(" point")[0])
