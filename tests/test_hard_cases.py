@@ -229,6 +229,39 @@ def test_slow_creeps_at_zero_load_are_decided_quickly(point):
     assert r.status != Status.BUDGET_EXHAUSTED and r.n_steps <= 5000
 
 
+def _near_critical(alpha, beta, zeta):
+    """The point at g~ = 0 whose kappa = 0 damping ratio ``gamma sqrt(beta) / 2`` is zeta."""
+    return alpha, beta, 2.0 * zeta / math.sqrt(beta), 0.0
+
+
+# Near critical damping with kappa = alpha + 1 - 2 beta close to, but not, 0 at g~ = 0: the
+# local damping ratio stays below 1 (or crosses it only far down), so the march kept the
+# base step of u_M while the return's real time grew like e^(-(alpha-1)/(alpha+1)): 200,000
+# steps, BUDGET_EXHAUSTED with a bound of ~1e-6 on e. The truths are not the kappa = 0
+# closed form's (2.6e-14 at zeta = 0.995): zeta(u) ~ u^(-kappa/2) drifts over the many
+# decades of u the return crosses. (3, 1.999) turns overdamped and creeps for ever; the
+# last point (zeta = 1.008, kappa = -1.1e-4) leaves with e = 1.2e-132 at t_f = 2.7e52.
+NEAR_CRITICAL = [_near_critical(2.0, 1.5005, 0.995),       # e = 4.162e-11
+                 _near_critical(2.0, 1.4995, 0.99),        # 4.137e-13
+                 _near_critical(3.0, 2.001, 0.99),         # 8.277e-9
+                 _near_critical(3.0, 2.001, 0.999),        # 3.233e-12
+                 _near_critical(3.0, 1.999, 0.99),         # 0 (creeps for ever)
+                 (2.307732022136789, 1.6539209144574305, 1.5677538362431758, 0.0)]
+
+
+@pytest.mark.parametrize("point", NEAR_CRITICAL)
+def test_near_critical_creeps_at_zero_load_are_decided_quickly(point):
+    ref = reference_hp.solve(*point, e_negligible=0.0)     # 0.1-0.5 s each
+    assert ref["status"] in (reference_hp.OK, reference_hp.CREEP)
+    for tol in (None, 1e-8):
+        r = sweep.integrate(*point, tol=tol)
+        err = abs(r.e - ref["e"])
+        assert err <= (tol or TARGET) and err <= 2 * r.e_err + 1e-18, (tol, r, ref["e"])
+        assert r.status != Status.BUDGET_EXHAUSTED and r.n_steps <= 5000, (tol, r)
+        if r.status == Status.OK:        # t_f is the physical end only where it leaves
+            assert float(r.t_f) == pytest.approx(ref["t_f"], rel=1e-6), (tol, r, ref)
+
+
 def test_refinement_out_of_budget_keeps_the_finished_march():
     """A finer march that runs out of the budget must not replace a decided march by the
     budget's bound (slow creeps reported e = 0.026 +- 0.026 where their single march said

@@ -74,6 +74,16 @@ _SURE_STEPS = 128.0
 # its cap (2.4% of the KK core draw took all 12 re-steps).
 _EPS = float(np.finfo(np.float64).eps)
 _NEWTON_STOP = 4.0 * _EPS
+# Local damping ratio from which a bead returning at g~ = 0 is marched with steps that
+# follow its local time scales (stepsize.local_policy; 1 under a load). Near critical
+# damping with kappa ~ 0 the return's real time grows like e^(-(alpha-1)/(alpha+1)) while
+# zeta(u) stays below 1 (at kappa = 0 it is zeta sqrt((alpha+1)/(2 alpha)), zeta =
+# gamma sqrt(beta)/2): the base step of u_M ran out of budget with a bound of ~1e-6 where
+# e is 1e-8 .. 1e-13 ((2, 1.5005) at zeta 0.995: 200,000 steps; now 1,520, e to 5e-21).
+# 0.5 is zeta from 0.5 to 0.61 for alpha in [1, 3] (e ~ 0.1 at kappa = 0), below which the
+# return is quick. A load keeps 1: below u-bar the motion's time scale is u-bar's, not
+# the local one, and the core draws (g~ >= 1e-3) stay as they were.
+_ZETA_FREE = 0.5
 
 
 @jit(inline="always")
@@ -327,9 +337,12 @@ def _creep_rule(c, k, u, w, r, v, e0, e_tol, phase):
 
 
 @jit(inline="always")
-def _overdamped_here(u, c):
-    """The local damping rate exceeds twice the local elastic frequency (zeta(u) >= 1)."""
-    return u > 0.0 and damping_rate(u, c) >= 2.0 * elastic_frequency(c.alpha, u)
+def _creeping_back(u, c):
+    """The local damping ratio ``zeta(u) = gamma beta u^(beta-1) / (2 sqrt(alpha
+    u^(alpha-1)))`` is at least 1 (under a load) or :data:`_ZETA_FREE` (at g~ = 0): a
+    returning bead's steps should follow its local time scales from here on."""
+    zeta = 1.0 if c.gtilde > 0.0 else _ZETA_FREE
+    return u > 0.0 and damping_rate(u, c) >= 2.0 * zeta * elastic_frequency(c.alpha, u)
 
 
 @jit(inline="always")
@@ -447,7 +460,7 @@ def _creep_rules(st, c, k, K, e_tol):
     """The creep rules inside R: ``(state, Ending)``, the state moved by a creep jump, the
     Ending's kind GOING unless the march ends here. (Not inlined: see :func:`_located`.)"""
     u, w, r, v, p = st.u, st.w, st.r, st.v, st.p
-    if st.phase > 1 and _overdamped_here(u, c):
+    if st.phase > 1 and _creeping_back(u, c):
         # Creeping back: steps follow the local time scales, which grow as u
         # falls (docs/creep.md, section 7).
         st = _with_policy(st, local_policy(p))
