@@ -284,8 +284,11 @@ def _input_fault(args: argparse.Namespace, exc: Exception, path: str) -> int:
 
     ``cannot read X: not a netCDF file`` where the file cannot be read; an OSError about
     another file (an output that cannot be written) names that file; any other error is
-    prefixed by ``path`` (e.g. ``X: not a scene dataset: ...``).
+    prefixed by ``path`` (e.g. ``X: not a scene dataset: ...``). With ``--debug``, the
+    exception itself, as every other command's.
     """
+    if getattr(args, "debug", False):
+        raise exc
     if isinstance(exc, OSError) and exc.filename is not None:
         where = f"cannot read {path}" if _names(exc, path) else os.fspath(exc.filename)
         text = f"{where}: {exc.strerror or exc}"
@@ -671,7 +674,22 @@ def build_parser() -> argparse.ArgumentParser:
     add_report_commands(sub)
     _add_export_command(sub)
     _add_example_commands(sub)
+    for leaf in _leaf_parsers(parser):
+        # "before or after the subcommand" (module docstring) for every command, not only
+        # those that added it themselves (report, export and example had it before only).
+        if "--debug" not in leaf._option_string_actions:
+            _add_debug(leaf)
     return parser
+
+
+def _leaf_parsers(parser: argparse.ArgumentParser):
+    """The parsers of the commands that run something (no subcommand of their own)."""
+    subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    if not subs:
+        yield parser
+    for action in subs:
+        for child in dict.fromkeys(action.choices.values()):   # aliases: once each
+            yield from _leaf_parsers(child)
 
 
 class _Terminated(KeyboardInterrupt):

@@ -150,6 +150,19 @@ def _parsers(parser):
                 yield from _parsers(sub)
 
 
+def test_every_command_takes_debug_after_the_subcommand(tmp_path, capsys):
+    # `sweep export X --debug` was "unrecognized arguments" (only run, info and validate
+    # had it), though the module says --debug goes before or after the subcommand.
+    leaves = [p for p in _parsers(cli.build_parser())
+              if not any(isinstance(a, argparse._SubParsersAction) for a in p._actions)]
+    assert len(leaves) >= 9 and all("--debug" in p._option_string_actions for p in leaves)
+    missing = tmp_path / "missing.nc"
+    assert cli.main(["export", str(missing), "--csv"]) == 1
+    assert "Traceback" not in capsys.readouterr().err
+    with pytest.raises(OSError):                  # --debug: the exception, not one line
+        cli.main(["export", str(missing), "--csv", "--debug"])
+
+
 def test_every_option_and_subcommand_has_help():
     missing = []
     for parser in _parsers(cli.build_parser()):
