@@ -262,6 +262,31 @@ def test_near_critical_creeps_at_zero_load_are_decided_quickly(point):
             assert float(r.t_f) == pytest.approx(ref["t_f"], rel=1e-6), (tol, r, ref)
 
 
+# The same returns under tiny loads (u-bar = g~^(1/alpha) far below u_M): the switch to
+# local steps waited for zeta(u) >= 1, as under any load, and the march kept u_M's base
+# step: 29,000-200,000 steps, BUDGET_EXHAUSTED on the third and fourth (bound 1.5e-6 where
+# e ~ 5e-9) and on the second at the defaults. The first two stick (the reference: H < 0
+# near u-bar).
+NEAR_CRITICAL_LOADED = [_near_critical(2.0, 1.5005, 0.995)[:3] + (1e-12,),
+                        _near_critical(3.0, 2.001, 0.99)[:3] + (1e-10,),
+                        (2.48354, 1.74177, 1.49571, 2.32e-14),      # e = 4.1e-9
+                        (2.60333, 1.80800, 1.51573, 5.557e-15),     # 5.5e-9
+                        (2.86684, 1.93674, 1.41994, 2.359e-13)]     # 4.8e-7
+
+
+@pytest.mark.parametrize("point", NEAR_CRITICAL_LOADED)
+def test_near_critical_returns_under_tiny_loads_are_decided_quickly(point):
+    ref = reference_hp.solve(*point, e_negligible=0.0)     # ~0.1 s each
+    assert ref["status"] in (reference_hp.OK, reference_hp.STUCK)
+    for tol in (None, 1e-8):
+        r = sweep.integrate(*point, tol=tol)
+        err = abs(r.e - ref["e"])
+        assert err <= 2 * r.e_err + 1e-18, (tol, r, ref["e"])
+        if ref["status"] == reference_hp.OK:
+            assert err <= (tol or TARGET) and r.status == Status.OK, (tol, r, ref["e"])
+        assert r.status != Status.BUDGET_EXHAUSTED and r.n_steps <= 20000, (tol, r)
+
+
 def test_refinement_out_of_budget_keeps_the_finished_march():
     """A finer march that runs out of the budget must not replace a decided march by the
     budget's bound (slow creeps reported e = 0.026 +- 0.026 where their single march said
