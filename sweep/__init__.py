@@ -7,10 +7,10 @@ visco-elastic models*, INRIA hal-03462750 (2021) -- "the report" in docstrings.
 
 The package's floors, from the ground (no module imports from a floor above its own):
 :mod:`sweep.registry` (the facts) -> :mod:`sweep.kernels` (numba) and :mod:`sweep.store`
-(files) -> :mod:`sweep.model`, :mod:`sweep.api`, :mod:`sweep.auto`, :mod:`sweep.materials`
--> :mod:`sweep.critical`, :mod:`sweep.tables`, :mod:`sweep.xr` -> :mod:`sweep.sweeps`
-(configurations, designs, runner) -> :mod:`sweep.reports`, :mod:`sweep.examples` ->
-:mod:`sweep.cli`.
+(files) -> :mod:`sweep._arrays`, :mod:`sweep.model`, :mod:`sweep.api`, :mod:`sweep.auto`,
+:mod:`sweep.materials` -> :mod:`sweep.critical`, :mod:`sweep.tables`, :mod:`sweep.xr` ->
+:mod:`sweep.sweeps` (configurations, designs, runner) -> :mod:`sweep.reports`,
+:mod:`sweep.examples` -> :mod:`sweep.cli`.
 
 Every public name is imported on first use (PEP 562): ``import sweep`` loads nothing but
 the version, and ``sweep.cor`` loads the api and numba when first touched. The ``sweep``

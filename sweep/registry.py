@@ -646,10 +646,11 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
           "the time at which the integration decided so (a trough, the energy spent, the "
           "rest box, or e below its error bound, which depends on tol), not a physical end; "
           "for a deep load well decided without a march, the undamped swing's duration; inf "
-          "where the bead creeps for ever, or where a creep's slide along its slow branch "
-          "was not followed (its landing point or duration beyond double precision, though "
-          "it may leave at a finite time with an e below it); where the budget ran out, the "
-          "time reached", fill_value=math.nan),
+          "where the bead creeps for ever, where the impact lasts longer than double "
+          "precision can count (kappa = 0 near critical damping with alpha ~ 100), or where "
+          "a creep's slide along its slow branch was not followed (its landing point or "
+          "duration beyond double precision, though it may leave at a finite time with an e "
+          "below it); where the budget ran out, the time reached", fill_value=math.nan),
     Field("u_max", np.dtype(np.float64), "maximum compression u_M",
           "scaled maximum compression u(tau_0) where v = 0 (Algorithm 1, phase 1), in units "
           "of delta = v0 T of eq. (2); NaN where the point was decided before it (a bead "

@@ -101,8 +101,10 @@ def _default_variable(ds: Any) -> str:
     for name in ("e_numeric", "e_auto"):
         if name in ds:
             return name
-    # e_err begins with e_ too: it is an error estimate, not a coefficient of restitution.
-    names = [n for n in ds.data_vars if str(n)[2:] in registry.METHODS and str(n)[:2] == "e_"]
+    # e_err begins with e_ too: a field (an error estimate), not a coefficient of
+    # restitution; a method no longer registered here still tabulates its e.
+    names = [n for n in ds.data_vars
+             if str(n).startswith("e_") and str(n) not in registry.FIELDS]
     if not names:
         raise ValueError("the dataset stores no e_<method> variable")
     return str(names[0])

@@ -157,6 +157,34 @@ def test_kappa_zero_duration_and_compression_against_dop853(alpha):
         assert float(r.u_max) == pytest.approx(ref.u_max, rel=1e-10), zeta
 
 
+def test_kappa_zero_at_the_edges_of_double_precision():
+    """Huge alpha (1 + mu cancelled: T_f off by 8e-4 at alpha = 1e15, inf at 1e16), subnormal
+    e (e_err underflowed to 0 below the true error) and a zeta that rounds to 1 while
+    gamma^2 beta < 4 (it fell between this rule and the certificate and was marched)."""
+    mpmath = pytest.importorskip("mpmath")
+    for alpha in (1e6, 1e15, 1e16):
+        beta, zeta = 0.5 * (alpha + 1.0), 0.5
+        r = sweep.integrate(alpha, beta, _kappa_zero_gamma(alpha, zeta), 0.0)
+        with mpmath.workdps(40):       # the Gamma-function form, in mpmath
+            a, z = mpmath.mpf(alpha), mpmath.mpf(r"0.5")
+            m, w = 2 / (a + 1), mpmath.sqrt(1 - z * z)
+            b = z * (1 - m) / w
+            t_f = (((a + 1) / 2) ** (m / 2) * m * w ** -m * mpmath.pi
+                   * mpmath.exp(b * mpmath.pi / 2) * mpmath.gamma(m) / 2 ** (m - 1)
+                   / abs(mpmath.gamma((1 + m) / 2 + 1j * b / 2)) ** 2)
+        assert float(r.t_f) == pytest.approx(float(t_f), rel=1e-13), alpha
+    for pi_over in (730.0, 744.0):          # pi zeta / omega: e ~ 9e-318, 8e-324
+        zeta = pi_over / math.hypot(math.pi, pi_over)
+        r = sweep.integrate(1.5, 1.25, 2 * zeta / math.sqrt(1.25), 0.0)
+        with mpmath.workdps(40):
+            g = mpmath.mpf(2 * zeta / math.sqrt(1.25))
+            z = g * mpmath.sqrt(mpmath.mpf(1.25)) / 2
+            exact = mpmath.exp(-mpmath.pi * z / mpmath.sqrt(1 - z * z))
+        assert r.status == Status.OK and abs(float(r.e) - float(exact)) <= float(r.e_err)
+    r = sweep.integrate(1.5, 1.25, 1.7888543819998317, 0.0)   # gamma^2 beta = 4 - 4e-16
+    assert r.n_steps == 0 and r.status == Status.AT_REST and float(r.e) == 0.0
+
+
 @pytest.mark.parametrize("alpha", [1.5, 3.0])
 def test_kappa_zero_duration_near_critical_damping_against_quadrature(alpha):
     """Near zeta = 1 (where DOP853 is slow and b of the Gamma-function form is large) T_f

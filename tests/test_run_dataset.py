@@ -157,7 +157,7 @@ def test_restart_without_out_is_refused_naming_out(tmp_path, monkeypatch):
     # It raised "run_in_memory() got an unexpected keyword argument 'restart'".
     monkeypatch.chdir(tmp_path)
     for restart in (True, False):
-        with pytest.raises(TypeError, match="restart needs out="):
+        with pytest.raises(TypeError, match="restart= needs out="):
             sweep.run(GRID, quiet=True, restart=restart)
     assert list(tmp_path.iterdir()) == []
 

@@ -127,13 +127,15 @@ def _kappa_zero_duration(alpha, zeta, omega):
     with ``theta = omega s`` the integral is ``omega^-(1+mu) int_0^pi e^(b theta) sin^mu
     theta d theta``, ``b = -zeta mu / omega``, which is ``pi e^(b pi/2) Gamma(1+mu) /
     (2^mu |Gamma(1 + mu/2 + i b/2)|^2)`` (Gradshteyn-Ryzhik 3.892.1), summed in logarithms:
-    near critical damping b is large and each factor overflows alone."""
-    mu = (1.0 - alpha) / (alpha + 1.0)
-    b = -zeta * mu / omega
-    log_am = math.log((alpha + 1.0) / 2.0) / (alpha + 1.0) + math.log(2.0 / (alpha + 1.0))
-    log_int = (math.log(math.pi) + 0.5 * math.pi * b + math.lgamma(1.0 + mu)
-               - mu * math.log(2.0) - 2.0 * log_abs_gamma(1.0 + 0.5 * mu, 0.5 * b))
-    return math.exp(log_am - (1.0 + mu) * math.log(omega) + log_int)
+    near critical damping b is large and each factor overflows alone. ``1 + mu`` is ``m``,
+    taken as such: formed as ``1 + (1-alpha)/(alpha+1)`` it cancels (relative error eps
+    alpha; inf from alpha ~ 1e16, where lgamma(0) was met)."""
+    m = 2.0 / (alpha + 1.0)
+    b = zeta * (1.0 - m) / omega
+    log_am = 0.5 * m * math.log(0.5 * (alpha + 1.0)) + math.log(m)
+    log_int = (math.log(math.pi) + 0.5 * math.pi * b + math.lgamma(m)
+               + (1.0 - m) * math.log(2.0) - 2.0 * log_abs_gamma(0.5 * (1.0 + m), 0.5 * b))
+    return math.exp(log_am - m * math.log(omega) + log_int)
 
 
 @jit(inline="always")
@@ -144,24 +146,28 @@ def kappa_zero_free(c):
     ``y'' + 2 zeta y' + y = 0`` in a time s with ``d tau = (du/dy) ds``:
     ``y = e^(-zeta s) sin(omega s) / omega``, ``omega = sqrt(1 - zeta^2)``, hence
     ``e = exp(-pi zeta / omega)``, ``u_max = A exp(-zeta s_M)^m`` with ``omega s_M =
-    atan2(omega, zeta)``, and ``T_f`` from :func:`_kappa_zero_duration`. Near critical
-    damping the march took 10^4 to 2 10^5 steps (alpha >= 2: out of budget, e bounded by
-    1e-6 where it is 1e-14 and less); ``zeta >= 1`` is :func:`creeps_from_start`'s."""
+    atan2(omega, zeta)``, and ``T_f`` from :func:`_kappa_zero_duration` (inf where it is
+    beyond double precision: alpha ~ 100 near critical damping). Near critical damping the
+    march took 10^4 to 2 10^5 steps (alpha >= 2: out of budget, e bounded by 1e-6 where it
+    is 1e-14 and less); ``gamma^2 beta >= 4`` is :func:`creeps_from_start`'s, the same test
+    (a zeta rounded to 1 with gamma^2 beta below 4 fell between the two and was marched)."""
     if not (c.gtilde == 0.0 and c.gamma > 0.0 and c.alpha + 1.0 - 2.0 * c.beta == 0.0):
         return _none()
-    zeta = 0.5 * c.gamma * math.sqrt(c.beta)
-    if not zeta < 1.0:
+    g2b = c.gamma * c.gamma * c.beta
+    if not g2b < 4.0:
         return _none()
-    omega = math.sqrt((1.0 - zeta) * (1.0 + zeta))
+    omega = 0.5 * math.sqrt(4.0 - g2b)
+    zeta = min(0.5 * c.gamma * math.sqrt(c.beta), 1.0)
     e = math.exp(-math.pi * zeta / omega)
     m = 2.0 / (c.alpha + 1.0)
-    u_max = ((c.alpha + 1.0) / 2.0) ** (0.5 * m) * math.exp(
+    u_max = (0.5 * (c.alpha + 1.0)) ** (0.5 * m) * math.exp(
         -m * zeta * math.atan2(omega, zeta) / omega)
     t_f = _kappa_zero_duration(c.alpha, zeta, omega)
-    # Rounding: of e's exponent, whose condition in zeta is pi / omega^3.
-    err = e * _EPS * (8.0 + 4.0 * math.pi / (omega * omega * omega))
     if e == 0.0:     # below the smallest double: it leaves, with no e a double can hold
         return True, 0.0, t_f, u_max, _AT_REST, _TINY
+    # Rounding: of e's exponent, whose condition in zeta is pi / omega^3; and of e itself
+    # where it is subnormal (half its last place, which the relative term underflows).
+    err = max(e * _EPS * (8.0 + 4.0 * math.pi / (omega * omega * omega)), _TINY)
     return True, e, t_f, u_max, _OK, err
 
 

@@ -65,8 +65,8 @@ def run(config: Any, *, out: str | os.PathLike | None = None, **run_options: Any
     """
     if out is None and "restart" in run_options:
         # Said here: run_in_memory's own TypeError would name a function the caller never saw.
-        raise TypeError("restart needs out=: an in-memory run writes nothing and has nothing "
-                        "to resume or restart")
+        raise TypeError("restart= needs out=: an in-memory run writes nothing and has "
+                        "nothing to resume or restart")
     cfg = _config.as_config(config)
     if out is None:
         dataset, _ = _runner.run_in_memory(cfg, **run_options)
