@@ -354,9 +354,12 @@ def _creeping_back(u, c):
     local time scales from here on."""
     if not u > 0.0:
         return False
-    free = c.gtilde <= _LOAD_FREE * ppow_called(u, c.alpha, c.ka)
-    zeta = _ZETA_FREE if free else 1.0
-    return damping_rate(u, c) >= 2.0 * zeta * elastic_frequency(c.alpha, u)
+    d, critical = damping_rate(u, c), 2.0 * elastic_frequency(c.alpha, u)
+    if d >= critical:                   # zeta(u) >= 1: whatever the load
+        return True
+    # The load's power only where it decides: this runs at every step of a return.
+    return d >= _ZETA_FREE * critical and c.gtilde <= _LOAD_FREE * ppow_called(u, c.alpha,
+                                                                                  c.ka)
 
 
 @jit(inline="always")
