@@ -26,9 +26,8 @@ the same command, less ``--restart``, to resume); 141 the reader of the output l
 (``sweep info X | head``: nothing is said, as for a command killed by SIGPIPE). ``sweep
 run`` whose stderr fails midway (``2>&1 | head``, ``2>/dev/full``) drops its messages and
 progress from there on and finishes: 0 with the file complete, as if it had been
-``--quiet``. Every error is one
-line on stderr naming the file, value or address and the cause; ``--debug`` (before or
-after the subcommand) shows the traceback instead.
+``--quiet``. Every error is one line on stderr naming the file, value or address and the
+cause; ``--debug`` (before or after the subcommand) shows the traceback instead.
 ``python -m sweep`` is the same command (:mod:`sweep.__main__`).
 
 This module owns every subcommand and all of argparse: each subparser sets ``func``, the

@@ -60,7 +60,6 @@ import contextlib
 import dataclasses
 import datetime as _dt
 import errno
-import functools
 import hashlib
 import importlib.metadata
 import os
