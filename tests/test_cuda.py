@@ -115,6 +115,39 @@ def test_hard_cases_on_the_device_within_the_target(simulated):
     assert simulated["hard_max_excess"] <= 1e-9
 
 
+def _naive_work_order(a, b, g, gt):
+    """work_order's documented rule spelled out with numpy: a stable sort by the buckets
+    of gamma, g~, alpha, beta; a bucket is 0 for zero, else 1 + the place of the code
+    (exponent and four leading mantissa bits) in the codes' range, in equal parts."""
+    keys = []
+    for x, nb in zip((g, gt, a, b), kc.ORDER_BUCKETS):
+        pos = x > 0
+        code = x.view(np.int64) >> 48
+        lo, hi = code[pos].min(), code[pos].max()
+        keys.append(np.where(pos, 1 + (code - lo) * nb // (hi - lo + 1), 0))
+    return np.lexsort(keys[::-1])
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_work_order_groups_points_of_similar_parameters(seed):
+    rng = np.random.default_rng(seed)
+    n = 20_000
+    a, b = rng.choice([1.5, 2.0], n), rng.uniform(1, 3, n)
+    g, gt = 10 ** rng.uniform(-4, -0.5, n), 10 ** rng.uniform(-3, 1, n)
+    gt[rng.random(n) < 0.1] = 0.0
+    order = kc.work_order(a, b, g, gt)
+    assert order.dtype == np.int32 and np.array_equal(np.sort(order), np.arange(n))
+    assert np.array_equal(order, _naive_work_order(a, b, g, gt))
+    # Neighbours in the order are close in gamma: 64 buckets over 3.5 decades.
+    assert np.mean(np.abs(np.diff(np.log10(g[order]))) < 0.06) > 0.99
+
+
+def test_work_order_of_no_and_of_equal_points():
+    assert kc.work_order(*(np.empty(0),) * 4).size == 0
+    same = np.full(5, 1.5)
+    assert list(kc.work_order(same, same, np.zeros(5), same)) == [0, 1, 2, 3, 4]
+
+
 def _has_gpu():
     return kc.device_error() is None
 
