@@ -117,14 +117,15 @@ def test_hard_cases_on_the_device_within_the_target(simulated):
 
 def _naive_work_order(a, b, g, gt):
     """work_order's documented rule spelled out with numpy: a stable sort by the buckets
-    of gamma, g~, alpha, beta; a bucket is 0 for zero, else 1 + the place of the code
-    (exponent and four leading mantissa bits) in the codes' range, in equal parts."""
+    of gamma, g~, alpha, beta; a bucket is 0 for zero, else 1 + floor((code - lowest) * n
+    / (highest - lowest + 1)), the code being a double's exponent and four leading mantissa
+    bits."""
     keys = []
     for x, nb in zip((g, gt, a, b), kc.ORDER_BUCKETS):
         pos = x > 0
         code = x.view(np.int64) >> 48
         lo, hi = code[pos].min(), code[pos].max()
-        keys.append(np.where(pos, 1 + (code - lo) * nb // (hi - lo + 1), 0))
+        keys.append(np.where(pos, 1 + np.floor((code - lo) * (nb / (hi - lo + 1.0))), 0))
     return np.lexsort(keys[::-1])
 
 

@@ -54,8 +54,8 @@ from sweep.registry import kernel_fields
 __all__ = ["device_error", "integrate_arrays_cuda", "solve_one", "ptx", "work_order",
            "CHUNK", "THREADS_PER_BLOCK", "ORDER_BUCKETS"]
 
-#: Points per chunk at most (69 bytes of device memory a point, twice for two streams).
-CHUNK = 1 << 22
+#: Points per chunk at most (73 bytes of device memory a point, twice for two streams).
+CHUNK = 1 << 20
 #: Threads per block: the solve needs many registers; 128 keeps occupancy reasonable.
 THREADS_PER_BLOCK = 128
 _BYTES_PER_POINT = 4 * 8 + 4 + sum(f.dtype.itemsize for f in kernel_fields())
@@ -105,27 +105,39 @@ def solve_one(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, target, K,
 
 
 @cached_jit()
-def _bucket_codes(x, n_buckets, out, scale):
-    """``out = out * scale + bucket(x)``: 0 for x <= 0 (or NaN), else 1 + the place of x's
-    code in the codes' range over ``x``, in ``n_buckets`` equal parts. The code of x > 0 is
-    its exponent and four leading mantissa bits (about 16 log2(x): monotone, no log)."""
-    bits = x.view(np.int64)
-    lo, hi = np.int64(1) << 62, np.int64(-1)
-    for i in range(x.size):
-        if x[i] > 0.0:
-            lo, hi = min(lo, bits[i] >> 48), max(hi, bits[i] >> 48)
-    width = hi - lo + 1
-    for i in range(x.size):
-        b = 1 + ((bits[i] >> 48) - lo) * n_buckets // width if x[i] > 0.0 else 0
-        out[i] = out[i] * scale + b
+def _code_ranges(params, bits):
+    """(lowest, highest) code of each array of ``params`` over its positive entries; the
+    code of x > 0 (``bits``: x's bits as int64) is its exponent and four leading mantissa
+    bits (about 16 log2(x), monotone)."""
+    lo = np.full(len(params), np.int64(1) << 62)
+    hi = np.full(len(params), np.int64(-1))
+    for k in range(len(params)):
+        for i in range(params[k].size):
+            if params[k][i] > 0.0:
+                lo[k], hi[k] = min(lo[k], bits[k][i] >> 48), max(hi[k], bits[k][i] >> 48)
+    return lo, hi
 
 
 @cached_jit()
-def _counting_sort(keys, n_keys, order):
-    """``order`` = the stable argsort of ``keys`` (integers in [0, n_keys)), in O(n)."""
+def _sorted_by_buckets(params, bits, n_buckets, order):
+    """``order`` = the stable order of the points (``params``: a tuple of equal-length
+    arrays) by their buckets (:func:`work_order`), by a counting sort in O(n)."""
+    lo, hi = _code_ranges(params, bits)
+    scale = n_buckets / (hi - lo + 1.0)
+    n_keys = 1
+    for k in range(n_buckets.size):
+        n_keys *= n_buckets[k] + 1
     start = np.zeros(n_keys + 1, dtype=np.int64)
-    for k in keys:
-        start[k + 1] += 1
+    keys = np.empty(params[0].size, dtype=np.int64)
+    for i in range(keys.size):
+        key = 0
+        for k in range(len(params)):
+            b = 0
+            if params[k][i] > 0.0:
+                b = 1 + int(((bits[k][i] >> 48) - lo[k]) * scale[k])
+            key = key * (n_buckets[k] + 1) + b
+        keys[i] = key
+        start[key + 1] += 1
     for k in range(n_keys):
         start[k + 1] += start[k]
     for i in range(keys.size):
@@ -137,10 +149,11 @@ def work_order(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: n
                out: np.ndarray | None = None) -> np.ndarray:
     """An order of the points that puts points of similar work side by side.
 
-    The points sorted (stably) by the bucket of gamma, then of g~, alpha and beta
-    (:data:`ORDER_BUCKETS` of them), each bucket an equal part of the logarithmic range of
-    the parameter over these points (zero apart). Any order gives the same results; this
-    one keeps a warp's threads on similar paths through the integrator.
+    The points sorted (stably) by the bucket of gamma, then of g~, alpha and beta: 0 for
+    zero, else ``1 + floor((code - lowest) * n / (highest - lowest + 1))`` with ``n`` from
+    :data:`ORDER_BUCKETS` and ``code`` about 16 log2 of the parameter (its exponent and four
+    leading mantissa bits), its range taken over these points. Any order gives the same
+    results; this one keeps a warp's threads on similar paths through the integrator.
 
     Parameters
     ----------
@@ -154,11 +167,12 @@ def work_order(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: n
     ndarray of int32
         A permutation of ``range(len(alpha))``.
     """
-    keys = np.zeros(alpha.size, dtype=np.int64)
-    for x, nb in zip((gamma, gtilde, alpha, beta), ORDER_BUCKETS):
-        _bucket_codes(np.ascontiguousarray(x, dtype=np.float64), nb, keys, nb + 1)
-    order = np.empty(alpha.size, dtype=np.int32) if out is None else out
-    _counting_sort(keys, int(np.prod(np.array(ORDER_BUCKETS) + 1)), order)
+    params = tuple(np.ascontiguousarray(x, dtype=np.float64)
+                   for x in (gamma, gtilde, alpha, beta))
+    order = np.empty(params[0].size, dtype=np.int32) if out is None else out
+    if params[0].size:
+        _sorted_by_buckets(params, tuple(x.view(np.int64) for x in params),
+                           np.array(ORDER_BUCKETS, dtype=np.int64), order)
     return order
 
 
