@@ -218,9 +218,9 @@ def test_a_real_gpu_agrees_with_the_cpu(knob):
     bound = np.maximum(1e-12, np.maximum(np.asarray(cpu.e_err), np.asarray(gpu.e_err)))
     assert np.all(diff <= bound), np.flatnonzero(~(diff <= bound))[:5]
     close = diff <= 1e-12
-    assert np.mean(close[:n]) >= 0.99 and np.mean(close[n:]) >= 0.95
-    status = np.asarray(cpu.status) == np.asarray(gpu.status)
-    assert np.mean(status) >= 0.99
+    # H200: 100% of the random points, 95.7-97.1% of the hard cases (docs/speed/gpu.md)
+    assert np.mean(close[:n]) >= 0.99 and np.mean(close[n:]) >= 0.9
+    assert np.mean(np.asarray(cpu.status) == np.asarray(gpu.status)) >= 0.99
 
 
 def test_kernel_compiles_to_ptx(monkeypatch):
