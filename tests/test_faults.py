@@ -13,6 +13,7 @@ import errno
 import io
 import json
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -318,6 +319,37 @@ def test_damaged_or_foreign_chunks_are_recomputed(tmp_path, monkeypatch, referen
     assert line == ["resume: recomputed 5 saved chunks that failed verification (1 checksum "
                     "mismatch, 1 from another run, 1 misplaced, 2 unreadable)"]
     xr.testing.assert_identical(opened(out), reference["grid"])
+
+
+def _source_hash_of(package_parent):
+    """``runner.source_sha256()`` as a fresh interpreter computes it for the package
+    found under ``package_parent``."""
+    code = ("import sweep.sweeps.runner as r; print(r.__file__); "
+            "print(r.source_sha256())")
+    proc = subprocess.run([sys.executable, "-c", code], env=dict(
+        os.environ, PYTHONPATH=str(package_parent)), cwd=package_parent,
+        capture_output=True, text=True, timeout=300, check=True)
+    where, digest = proc.stdout.split()
+    assert Path(where).is_relative_to(package_parent)      # the copy, not this checkout
+    return digest
+
+
+def test_a_rebuilt_error_model_is_another_source(tmp_path):
+    # `sweep report error-model` rewrites sweep/data/error_model.npz in place, and every
+    # point of method = "auto" is served by what it says; the hash that resume and the
+    # "up to date" check compare read the .py files only, so a run interrupted before a
+    # rebuild resumed into a file mixing both models' choices (exit 0), and an output
+    # made with the old model was called up to date.
+    copy = tmp_path / "pkg"
+    shutil.copytree(ROOT / "sweep", copy / "sweep",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    before = _source_hash_of(copy)
+    model = copy / "sweep" / "data" / "error_model.npz"
+    with np.load(model) as z:
+        data = {k: z[k] for k in z.files}
+    data["bound"] = np.full_like(data["bound"], 127)       # no closed form anywhere
+    np.savez(model, **data)
+    assert _source_hash_of(copy) != before
 
 
 # --------------------------------------------------------------------------- preflight

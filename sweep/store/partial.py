@@ -346,7 +346,8 @@ class PartialStore:
     _CHECKED = {
         "config_sha256": "configuration",
         "sweep_version": "sweep version",
-        "sweep_source_sha256": "sweep source code (the package was edited or reinstalled)",
+        "sweep_source_sha256": ("sweep source code or data (the package was edited or "
+                                "reinstalled, or its error model rebuilt)"),
         "output": "output file name",
         "n_points": "number of design points",
         "chunk_size": "chunk size",

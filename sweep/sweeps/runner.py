@@ -314,21 +314,28 @@ def _version(dist):
         return "unknown"
 
 
-def source_sha256() -> str:
-    """Hash of the package's Python sources.
+#: The package's files that results depend on: its code, and the data it reads (the error
+#: model of method = "auto", which ``sweep report error-model`` rewrites in place).
+SOURCE_PATTERNS = ("**/*.py", "data/*.npz")
 
-    Two runs of one configuration give identical results only with identical code; the
-    version number alone does not see a local edit. Resuming, and reusing an existing
-    output, therefore also require the same source hash.
+
+def source_sha256() -> str:
+    """Hash of the package's sources: its Python code and the data it ships.
+
+    Two runs of one configuration give identical results only with identical code and
+    data; the version number alone does not see a local edit or a rebuilt error model.
+    Resuming, and reusing an existing output, therefore also require the same hash.
 
     Returns
     -------
     str
-        Hex SHA-256 over the relative path and bytes of every ``sweep/**/*.py``.
+        Hex SHA-256 over the relative path and bytes of every file matching
+        :data:`SOURCE_PATTERNS` under ``sweep/``.
     """
     package = Path(__file__).resolve().parents[1]
+    files = {path for pattern in SOURCE_PATTERNS for path in package.glob(pattern)}
     h = hashlib.sha256()
-    for path in sorted(package.rglob("*.py")):
+    for path in sorted(files):
         h.update(path.relative_to(package).as_posix().encode())
         h.update(path.read_bytes())
     return h.hexdigest()
