@@ -340,9 +340,7 @@ def test_a_rebuilt_error_model_is_another_source(tmp_path):
     # "up to date" check compare read the .py files only, so a run interrupted before a
     # rebuild resumed into a file mixing both models' choices (exit 0), and an output
     # made with the old model was called up to date.
-    copy = tmp_path / "pkg"
-    shutil.copytree(ROOT / "sweep", copy / "sweep",
-                    ignore=shutil.ignore_patterns("__pycache__"))
+    copy = _package_copy(tmp_path)
     before = _source_hash_of(copy)
     model = copy / "sweep" / "data" / "error_model.npz"
     with np.load(model) as z:
@@ -613,6 +611,42 @@ def test_a_failed_scheduler_connection_leaves_no_default_client(tmp_path):
                 traceback.walk_tb(info.value.__cause__.__traceback__)
                 if isinstance(frame.f_locals.get("self"), distributed.Client)]
         assert held and all(client.status == "closed" for client in held)
+
+
+def _package_copy(tmp_path):
+    """A copy of the sweep package under ``tmp_path / "pkg"``."""
+    copy = tmp_path / "pkg"
+    shutil.copytree(ROOT / "sweep", copy / "sweep",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    return copy
+
+
+def test_a_worker_running_another_sweep_is_refused(tmp_path):
+    # A Dask worker imports its own sweep: one left with another version (a stale install
+    # on the cluster's nodes) computed chunks with its code and the run exited 0, the file
+    # claiming the source hash of the process that wrote it.
+    distributed = pytest.importorskip("distributed")
+    copy = _package_copy(tmp_path)
+    with open(copy / "sweep" / "api.py", "a") as fh:
+        fh.write("\n# another sweep\n")
+    out = tmp_path / "out.nc"
+    with distributed.LocalCluster(n_workers=0, processes=False, protocol="tcp://",
+                                  host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        worker = subprocess.Popen(
+            [sys.executable, "-m", "distributed.cli.dask_worker", cluster.scheduler_address,
+             "--nthreads", "1", "--no-nanny", "--no-dashboard"],
+            env=dict(os.environ, PYTHONPATH=str(copy)), cwd=copy,
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            with distributed.Client(cluster, set_as_default=False) as client:
+                client.wait_for_workers(1, timeout=120)
+            with pytest.raises(runner.RunError, match="runs another sweep"):
+                run(GRID, out, scheduler=cluster.scheduler_address)
+        finally:
+            worker.kill()
+            worker.wait(timeout=60)
+    assert not out.exists()
 
 
 # --------------------------------------------------------------------------- the command line

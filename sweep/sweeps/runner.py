@@ -60,6 +60,7 @@ import contextlib
 import dataclasses
 import datetime as _dt
 import errno
+import functools
 import hashlib
 import importlib.metadata
 import os
@@ -473,6 +474,41 @@ def _close_unconnected(exc, client_type):
             return
 
 
+class WorkerMismatch(RuntimeError):
+    """A Dask worker runs another sweep (code or data) than the process writing the file."""
+
+
+@functools.lru_cache(maxsize=1)
+def _loaded_source():
+    """:func:`source_sha256` of this process, taken once: what a long-lived worker
+    imported, whatever was installed since."""
+    return source_sha256()
+
+
+def _compute_on_worker(source, plan, *points):
+    """:func:`compute_chunk` on a Dask worker whose sweep has the hash ``source``.
+
+    A worker imports its own sweep: one left with another version computed chunks with
+    its code while the file recorded the hash of the process that wrote it (exit 0)."""
+    here = _loaded_source()
+    if here != source:
+        from distributed import get_worker  # noqa: PLC0415 -- only on a worker
+
+        raise WorkerMismatch(
+            f"the Dask worker {get_worker().address} runs another sweep than this process "
+            f"(source sha256 {here[:12]}... there, {source[:12]}... here); install the "
+            "same sweep on every worker")
+    return compute_chunk(plan, *points)
+
+
+def _chunk_result(fut):
+    """What a chunk's future holds; a worker with another sweep is a :class:`RunError`."""
+    try:
+        return fut.result()
+    except WorkerMismatch as exc:
+        raise RunError(str(exc)) from exc
+
+
 def _dask_executor(plan, tasks, client):
     from distributed import as_completed
 
@@ -482,10 +518,12 @@ def _dask_executor(plan, tasks, client):
     meta = {}
     token = uuid.uuid4().hex  # task keys unique to this run on a shared scheduler
     tasks = iter(tasks)
+    source = source_sha256()
 
     def submit_next():
         for index, start, stop, points in tasks:
-            fut = client.submit(compute_chunk, plan, *(points[k] for k in _config.PARAMETERS),
+            fut = client.submit(_compute_on_worker, source, plan,
+                                *(points[k] for k in _config.PARAMETERS),
                                 pure=False, key=f"sweep-chunk-{index}-{token}")
             meta[fut.key] = (index, start, stop, points)
             futures.add(fut)
@@ -496,7 +534,7 @@ def _dask_executor(plan, tasks, client):
         if not submit_next():
             break
     for fut in futures:
-        arrays, seconds, caveats = fut.result()
+        arrays, seconds, caveats = _chunk_result(fut)
         index, start, stop, points = meta.pop(fut.key)
         fut.release()
         yield index, start, stop, points, arrays, seconds, caveats
