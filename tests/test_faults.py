@@ -649,6 +649,39 @@ def test_a_worker_running_another_sweep_is_refused(tmp_path):
     assert not out.exists()
 
 
+def test_a_chunk_lost_on_the_cluster_names_it_and_the_run_resumes(tmp_path, monkeypatch,
+                                                                   capsys, reference):
+    # A worker killed while it computes (out of memory, preempted) fails its chunk once
+    # Dask has tried it on several: the run said "unexpected KilledWorker: ..." (or
+    # MemoryError, ...), as if it were a bug, naming neither the chunk nor the finished
+    # chunks kept, nor how to go on.
+    distributed = pytest.importorskip("distributed")
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    real = runner.compute_chunk
+    fourth = design.build(config.loads(GRID).design).points(30, 40)
+
+    def dies_at_the_fourth_chunk(plan, *points):
+        if all(np.array_equal(a, b) for a, b in zip(points, fourth)):
+            raise MemoryError("Unable to allocate 1.00 GiB")
+        return real(plan, *points)
+
+    monkeypatch.setattr(runner, "compute_chunk", dies_at_the_fourth_chunk)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        argv = ["run", str(cfg), "-o", str(out), "--quiet", "--scheduler",
+                cluster.scheduler_address]
+        assert cli.main(argv) == 1
+        one_line_error(capsys.readouterr().err, "chunk 3 (points 30 to 39)",
+                       "failed on the Dask cluster", "MemoryError: Unable to allocate",
+                       f"kept in {store.partial_dir(out)}", "rerun the same command")
+        monkeypatch.setattr(runner, "compute_chunk", real)
+        assert cli.main(argv) == 0
+    assert not store.partial_dir(out).exists()
+    xr.testing.assert_equal(opened(out), reference["grid"])
+
+
 # --------------------------------------------------------------------------- the command line
 
 def _non_sweep_netcdf(path):

@@ -501,12 +501,17 @@ def _compute_on_worker(source, plan, *points):
     return compute_chunk(plan, *points)
 
 
-def _chunk_result(fut):
-    """What a chunk's future holds; a worker with another sweep is a :class:`RunError`."""
+def _chunk_result(fut, index, start, stop):
+    """What the future of chunk ``index`` (points ``start .. stop-1``) holds; a chunk the
+    cluster could not compute (a worker with another sweep, one killed while computing,
+    a task the scheduler could not load) is a :class:`ChunkFailed` naming it."""
     try:
         return fut.result()
     except WorkerMismatch as exc:
-        raise RunError(str(exc)) from exc
+        raise ChunkFailed(str(exc)) from exc
+    except Exception as exc:  # noqa: BLE001 - whatever the worker raised, one line
+        raise ChunkFailed(f"chunk {index} (points {start:,} to {stop - 1:,}) failed on the "
+                          f"Dask cluster: {type(exc).__name__}: {exc}") from exc
 
 
 def _dask_executor(plan, tasks, client):
@@ -534,8 +539,8 @@ def _dask_executor(plan, tasks, client):
         if not submit_next():
             break
     for fut in futures:
-        arrays, seconds, caveats = _chunk_result(fut)
         index, start, stop, points = meta.pop(fut.key)
+        arrays, seconds, caveats = _chunk_result(fut, index, start, stop)
         fut.release()
         yield index, start, stop, points, arrays, seconds, caveats
         submit_next()
@@ -588,6 +593,10 @@ class RunError(RuntimeError):
     """A run cannot start or go on: refused by the preflight, a bad output path, a full
     disk, an unreachable scheduler. The message is one line naming the file, value or
     address and the cause."""
+
+
+class ChunkFailed(RunError):
+    """A chunk the Dask cluster could not compute (the finished ones are kept)."""
 
 
 @dataclasses.dataclass
@@ -1134,6 +1143,8 @@ def _write_failure(job, partial, exc):
     saved = len(partial.finished())
     keep = (f"the {count(saved, 'finished chunk')} {'is' if saved == 1 else 'are'} kept in "
             f"{partial.dir}: {job.resume_advice}")
+    if isinstance(exc, ChunkFailed):
+        return RunError(f"{exc}; {keep}")
     if _disk_is_full(exc, partial.dir):
         return RunError(f"{_full_disk_text(exc, partial.dir)}; {keep} once space is freed")
     if isinstance(exc, OSError):
