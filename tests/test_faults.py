@@ -682,6 +682,64 @@ def test_a_chunk_lost_on_the_cluster_names_it_and_the_run_resumes(tmp_path, monk
     xr.testing.assert_equal(opened(out), reference["grid"])
 
 
+#: A worker preload (``dask worker --preload``): its third chunk waits for ever, so that
+#: the test decides when the scheduler goes (no sleeps).
+STALLED_WORKER = """
+import time
+import sweep.sweeps.runner as r
+real, count = r.compute_chunk, [0]
+def stalled(*a):
+    count[0] += 1
+    while count[0] >= 3:
+        time.sleep(0.1)
+    return real(*a)
+r.compute_chunk = stalled
+"""
+
+
+def _dask_process(tmp_path, command, *args):
+    """``dask scheduler`` or ``dask worker`` in a process of its own, this sweep first on
+    its path (and ``tmp_path``, for preloads)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(tmp_path)]))
+    return subprocess.Popen([sys.executable, "-m", f"distributed.cli.dask_{command}",
+                             *args, "--no-dashboard"], env=env, cwd=tmp_path,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def test_a_scheduler_lost_mid_run_is_one_line(tmp_path):
+    # distributed's client logged its failed reconnection, two tracebacks in 35 lines, on
+    # stderr before the run's own one-line error.
+    pytest.importorskip("distributed")
+    (tmp_path / "stalled_worker.py").write_text(STALLED_WORKER)
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(DOE)
+    out = tmp_path / "out.nc"
+    port = _closed_port()
+    address = f"tcp://127.0.0.1:{port}"
+    scheduler = _dask_process(tmp_path, "scheduler", "--host", "127.0.0.1", "--port",
+                              str(port))
+    worker = _dask_process(tmp_path, "worker", address, "--nthreads", "1", "--no-nanny",
+                           "--preload", "stalled_worker")
+    try:
+        run = subprocess.Popen(
+            [sys.executable, "-m", "sweep", "run", str(cfg), "-o", str(out), "--quiet",
+             "--scheduler", address, "--scheduler-timeout", "5"],
+            env=dict(os.environ, PYTHONPATH=str(ROOT)), cwd=tmp_path,
+            stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 120
+        while len(list(store.partial_dir(out).glob("chunk_*.npz"))) < 2:
+            assert run.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        scheduler.kill()
+        assert run.wait(timeout=120) == 1
+        one_line_error(run.stderr.read(), "chunk 2 (points 8,000 to 11,999)",
+                       "failed on the Dask cluster", "the 2 finished chunks are kept")
+    finally:
+        for process in (scheduler, worker):
+            process.kill()
+            process.wait(timeout=60)
+
+
 # --------------------------------------------------------------------------- the command line
 
 def _non_sweep_netcdf(path):
