@@ -350,6 +350,29 @@ def test_a_rebuilt_error_model_is_another_source(tmp_path):
     assert _source_hash_of(copy) != before
 
 
+def test_saved_chunks_of_other_points_are_recomputed(tmp_path, monkeypatch):
+    # A design's points come from scipy's and numpy's samplers, whose sequences a new
+    # version may change while the configuration, so the manifest, stays the same: the
+    # resumed chunks kept the values of the old points, stored under the new points'
+    # coordinates (exit 0).
+    out = tmp_path / "out.nc"
+    interrupted(DOE, out, 3, monkeypatch)
+    real = design.DoEDesign.points
+
+    def drifted(self, start, stop):               # another sampler's sequence
+        alpha, beta, gamma, gtilde = real(self, start, stop)
+        return alpha, beta, gamma * 0.5, gtilde
+
+    monkeypatch.setattr(design.DoEDesign, "points", drifted)
+    logged = []
+    res = run(DOE, out, log=logged.append, quiet=False)
+    assert (res.resumed_chunks, res.recomputed_chunks) == (0, 3)
+    assert "resume: recomputed 3 saved chunks that failed verification (3 computed at " \
+           "other points)" in logged
+    run(DOE, tmp_path / "fresh.nc")
+    xr.testing.assert_equal(opened(out), opened(tmp_path / "fresh.nc"))
+
+
 # --------------------------------------------------------------------------- preflight
 
 HUGE = GRID.replace("gamma = {start = 0.0, stop = 0.2, num = 9}",

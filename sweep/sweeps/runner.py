@@ -978,10 +978,10 @@ def _tasks(job, partial, done, behind, totals, bar) -> Iterator[tuple]:
     on the way (in order, so storage chunks are written sequentially). A saved chunk that
     fails verification is recomputed."""
     for index, (start, stop) in enumerate(job.chunks):
-        need_points = index not in done or job.layout.per_point
-        points = _chunk_points(job, start, stop) if need_points else None
+        # Saved chunks too: they must have been computed at these very points.
+        points = _chunk_points(job, start, stop)
         if index in done:
-            loaded = partial.load_chunk(index, start, stop)
+            loaded = partial.load_chunk(index, start, stop, points)
             if loaded is not None:
                 arrays, (wall, kernel, *caveats) = loaded
                 behind.write(start, stop, arrays, points)
@@ -991,8 +991,6 @@ def _tasks(job, partial, done, behind, totals, bar) -> Iterator[tuple]:
             done.discard(index)
             job.result.recomputed_chunks += 1
             bar.update(-(stop - start))  # it was counted as done at the start
-            if points is None:
-                points = _chunk_points(job, start, stop)
         yield index, start, stop, points
 
 
@@ -1035,7 +1033,7 @@ def _stream_chunks(job, partial, done, behind, quiet, client):
             # (so its own saving and writing count towards the next chunk).
             now = time.perf_counter()
             wall, last = now - last, now
-            partial.save_chunk(index, start, stop, arrays, [wall, kernel, *caveats])
+            partial.save_chunk(index, start, stop, arrays, [wall, kernel, *caveats], points)
             behind.write(start, stop, arrays, points)
             totals.add(wall, kernel, caveats)
             result.computed_points += stop - start
