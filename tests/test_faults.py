@@ -838,6 +838,19 @@ def test_input_faults_end_in_one_line(tmp_path, capsys, case):
     assert not (tmp_path / "out.nc.lock").exists()
 
 
+@pytest.mark.parametrize("under", ["c.toml", "c.toml/sub"])
+def test_a_file_where_the_output_directory_should_be_is_named(tmp_path, capsys, under):
+    # `-o c.toml/out.nc` said "cannot write in .../c.toml: c.toml: File exists", as if the
+    # file's existence were the fault, not that it is no directory.
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / under / "out.nc"
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 1
+    line = one_line_error(capsys.readouterr().err, f"{cfg} is not a directory", "-o")
+    assert "File exists" not in line
+    assert cfg.read_text() == GRID and sorted(p.name for p in tmp_path.iterdir()) == ["c.toml"]
+
+
 @pytest.mark.parametrize("stderr", ["closed pipe", "/dev/full"])
 def test_a_failing_stderr_drops_the_messages_not_the_run(tmp_path, reference, stderr):
     # `sweep run c.toml 2>&1 | head -c 10` and `2>/dev/full`: the run was lost, blamed on

@@ -669,6 +669,7 @@ def _check_output_path(output):
         raise RunError(f"{output} is a directory; give the output file name with -o")
     if output.exists() and not output.is_file():
         raise RunError(f"{output} exists and is not a regular file; choose another -o")
+    _check_parent_is_a_directory(output)
     longest = len(os.fsencode(store.partial_dir(output).name))
     try:
         name_max = os.pathconf(_existing_ancestor(output.parent), "PC_NAME_MAX")
@@ -678,6 +679,15 @@ def _check_output_path(output):
         raise RunError(f"output name too long: {output.name[:40]}... makes a "
                        f"{longest}-byte file name ({store.partial_dir(output).name[-20:]} "
                        f"included); the file system allows {name_max}")
+
+
+def _check_parent_is_a_directory(output):
+    """Refuse an output under a file (``-o c.toml/out.nc``): creating its directory said
+    "File exists" or "Not a directory" of a path the user never named as a directory."""
+    ancestor = _existing_ancestor(output.parent)
+    if not ancestor.is_dir():
+        raise RunError(f"{ancestor} is not a directory, so {output} cannot be written "
+                       "under it; choose another -o")
 
 
 def _check_not_the_config(output, source):
