@@ -266,7 +266,7 @@ def _cmd_validate(args):
               f"{_format.rate(rate)} ({source})")
         for line in caveats:
             print(f"  caveat: {line}")
-    refusal = pre.refusal(_limits(args)) or pre.disk_refusal()
+    refusal = pre.refusal(_limits(args)) or pre.chunk_memory_refusal() or pre.disk_refusal()
     if refusal is not None and not args.force:
         print(f"sweep validate: error: `sweep run` would refuse {args.config}: {refusal}",
               file=sys.stderr)

@@ -402,6 +402,25 @@ def test_a_huge_design_is_refused_before_anything_is_allocated(tmp_path, monkeyp
     assert cli.main(["run", str(cfg).replace("huge", "x"), "--max-size", "1k"]) == 1
 
 
+def test_a_chunk_larger_than_memory_is_refused_before_the_run(tmp_path, monkeypatch,
+                                                              capsys):
+    # A chunk is computed whole in memory: --chunk-size 2147483648 on a large design
+    # allocated until the OOM killer ended the run (SIGKILL, no message) or failed with
+    # "unexpected MemoryError: Unable to allocate 2.00 MiB ...".
+    monkeypatch.setattr(preflight, "physical_memory", lambda: 2 ** 20)   # a 1 MiB machine
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(DOE)                    # 40,000 points of 8 B, 32 B of coordinates
+    out = tmp_path / "out.nc"
+    argv = ["run", str(cfg), "-o", str(out), "--quiet"]
+    assert cli.main(argv + ["--chunk-size", "40000"]) == 1
+    one_line_error(capsys.readouterr().err, "a chunk of 40,000 points", "memory",
+                   "--chunk-size", "--force")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.toml"]
+    assert cli.main(["validate", str(cfg), "--no-estimate", "--chunk-size", "40000"]) == 1
+    assert "would refuse" in capsys.readouterr().err
+    assert cli.main(argv) == 0                                 # its chunks of 4,000 fit
+
+
 def test_the_chunk_list_is_lazy():
     chunks = design.Chunks(10 ** 12, 7)
     assert len(chunks) == -(-10 ** 12 // 7)

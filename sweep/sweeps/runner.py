@@ -793,11 +793,19 @@ def _preflight(job, force, limits):
         raise TypeError(f"limits must be a sweep.sweeps.preflight.Limits, got "
                         f"{type(limits).__name__} {limits!r:.60}")
     refusal = job.pre.refusal(limits or _preflight_mod.Limits())
-    if refusal is not None:
-        if not force:
-            raise RunError(refusal)
-        job.log(f"--force: {refusal.split(';')[0]}")
+    if refusal is None and job.output is not None:  # in memory: the dataset's check first
+        refusal = job.pre.chunk_memory_refusal()
+    _refuse_unless_forced(job, refusal, force)
     _check_device(job)
+
+
+def _refuse_unless_forced(job, refusal, force, flag="--force"):
+    """Raise ``refusal`` (a RunError) unless ``force``, which only logs it."""
+    if refusal is None:
+        return
+    if not force:
+        raise RunError(refusal)
+    job.log(f"{flag}: {refusal.split(';')[0]}")
 
 
 def _check_device(job):
@@ -1354,11 +1362,8 @@ def run_in_memory(cfg: _config.Config | str | Path, *, quiet: bool = False,
     job = _prepare(cfg, None, chunk_size, quiet, log, in_memory=True)
     job.progress_interval = progress_interval
     _preflight(job, force, limits)
-    refusal = job.pre.memory_refusal()
-    if refusal is not None:
-        if not force:
-            raise RunError(refusal)
-        job.log(f"force: {refusal.split(';')[0]}")
+    refusal = job.pre.memory_refusal() or job.pre.chunk_memory_refusal()
+    _refuse_unless_forced(job, refusal, force, flag="force")
     client, own = _connect(scheduler, scheduler_timeout)
     try:
         writer = _compute_in_memory(job, quiet, client, scheduler)
