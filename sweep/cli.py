@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import logging
 import math
 import os
 import signal
@@ -265,7 +266,7 @@ def _cmd_validate(args):
               f"{_format.rate(rate)} ({source})")
         for line in caveats:
             print(f"  caveat: {line}")
-    refusal = pre.refusal(_limits(args)) or pre.disk_refusal()
+    refusal = pre.refusal(_limits(args)) or pre.chunk_memory_refusal() or pre.disk_refusal()
     if refusal is not None and not args.force:
         print(f"sweep validate: error: `sweep run` would refuse {args.config}: {refusal}",
               file=sys.stderr)
@@ -311,10 +312,28 @@ def _cmd_info(args):
     return 0
 
 
+@contextlib.contextmanager
+def _dask_logs_off(args):
+    """Keep distributed's log off stderr during a run on a cluster (``--debug``: not).
+
+    Its client logs a lost scheduler or worker, tracebacks included (35 lines for a
+    scheduler killed mid-run), where the run says what happened in one line and keeps
+    the finished chunks."""
+    if args.scheduler is None or getattr(args, "debug", False):
+        yield
+        return
+    previous = logging.root.manager.disable
+    logging.disable(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logging.disable(previous)
+
+
 def _cmd_run(args):
     from sweep.sweeps import runner
 
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, _dask_logs_off(args):
         warnings.simplefilter("always", runner.CaveatWarning)
         runner.run(args.config, args.output, restart=args.restart, quiet=args.quiet,
                    chunk_size=args.chunk_size, scheduler=args.scheduler, force=args.force,

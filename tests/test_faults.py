@@ -13,6 +13,7 @@ import errno
 import io
 import json
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -320,6 +321,58 @@ def test_damaged_or_foreign_chunks_are_recomputed(tmp_path, monkeypatch, referen
     xr.testing.assert_identical(opened(out), reference["grid"])
 
 
+def _source_hash_of(package_parent):
+    """``runner.source_sha256()`` as a fresh interpreter computes it for the package
+    found under ``package_parent``."""
+    code = ("import sweep.sweeps.runner as r; print(r.__file__); "
+            "print(r.source_sha256())")
+    proc = subprocess.run([sys.executable, "-c", code], env=dict(
+        os.environ, PYTHONPATH=str(package_parent)), cwd=package_parent,
+        capture_output=True, text=True, timeout=300, check=True)
+    where, digest = proc.stdout.split()
+    assert Path(where).is_relative_to(package_parent)      # the copy, not this checkout
+    return digest
+
+
+def test_a_rebuilt_error_model_is_another_source(tmp_path):
+    # `sweep report error-model` rewrites sweep/data/error_model.npz in place, and every
+    # point of method = "auto" is served by what it says; the hash that resume and the
+    # "up to date" check compare read the .py files only, so a run interrupted before a
+    # rebuild resumed into a file mixing both models' choices (exit 0), and an output
+    # made with the old model was called up to date.
+    copy = _package_copy(tmp_path)
+    before = _source_hash_of(copy)
+    model = copy / "sweep" / "data" / "error_model.npz"
+    with np.load(model) as z:
+        data = {k: z[k] for k in z.files}
+    data["bound"] = np.full_like(data["bound"], 127)       # no closed form anywhere
+    np.savez(model, **data)
+    assert _source_hash_of(copy) != before
+
+
+def test_saved_chunks_of_other_points_are_recomputed(tmp_path, monkeypatch):
+    # A design's points come from scipy's and numpy's samplers, whose sequences a new
+    # version may change while the configuration, so the manifest, stays the same: the
+    # resumed chunks kept the values of the old points, stored under the new points'
+    # coordinates (exit 0).
+    out = tmp_path / "out.nc"
+    interrupted(DOE, out, 3, monkeypatch)
+    real = design.DoEDesign.points
+
+    def drifted(self, start, stop):               # another sampler's sequence
+        alpha, beta, gamma, gtilde = real(self, start, stop)
+        return alpha, beta, gamma * 0.5, gtilde
+
+    monkeypatch.setattr(design.DoEDesign, "points", drifted)
+    logged = []
+    res = run(DOE, out, log=logged.append, quiet=False)
+    assert (res.resumed_chunks, res.recomputed_chunks) == (0, 3)
+    assert "resume: recomputed 3 saved chunks that failed verification (3 computed at " \
+           "other points)" in logged
+    run(DOE, tmp_path / "fresh.nc")
+    xr.testing.assert_equal(opened(out), opened(tmp_path / "fresh.nc"))
+
+
 # --------------------------------------------------------------------------- preflight
 
 HUGE = GRID.replace("gamma = {start = 0.0, stop = 0.2, num = 9}",
@@ -347,6 +400,25 @@ def test_a_huge_design_is_refused_before_anything_is_allocated(tmp_path, monkeyp
     one_line_error(captured.err, "would refuse", "--max-points")
     # a limit of one's own, in bytes: the small grid is refused too
     assert cli.main(["run", str(cfg).replace("huge", "x"), "--max-size", "1k"]) == 1
+
+
+def test_a_chunk_larger_than_memory_is_refused_before_the_run(tmp_path, monkeypatch,
+                                                              capsys):
+    # A chunk is computed whole in memory: --chunk-size 2147483648 on a large design
+    # allocated until the OOM killer ended the run (SIGKILL, no message) or failed with
+    # "unexpected MemoryError: Unable to allocate 2.00 MiB ...".
+    monkeypatch.setattr(preflight, "physical_memory", lambda: 2 ** 20)   # a 1 MiB machine
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(DOE)                    # 40,000 points of 8 B, 32 B of coordinates
+    out = tmp_path / "out.nc"
+    argv = ["run", str(cfg), "-o", str(out), "--quiet"]
+    assert cli.main(argv + ["--chunk-size", "40000"]) == 1
+    one_line_error(capsys.readouterr().err, "a chunk of 40,000 points", "memory",
+                   "--chunk-size", "--force")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.toml"]
+    assert cli.main(["validate", str(cfg), "--no-estimate", "--chunk-size", "40000"]) == 1
+    assert "would refuse" in capsys.readouterr().err
+    assert cli.main(argv) == 0                                 # its chunks of 4,000 fit
 
 
 def test_the_chunk_list_is_lazy():
@@ -583,6 +655,133 @@ def test_a_failed_scheduler_connection_leaves_no_default_client(tmp_path):
         assert held and all(client.status == "closed" for client in held)
 
 
+def _package_copy(tmp_path):
+    """A copy of the sweep package under ``tmp_path / "pkg"``."""
+    copy = tmp_path / "pkg"
+    shutil.copytree(ROOT / "sweep", copy / "sweep",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    return copy
+
+
+def test_a_worker_running_another_sweep_is_refused(tmp_path):
+    # A Dask worker imports its own sweep: one left with another version (a stale install
+    # on the cluster's nodes) computed chunks with its code and the run exited 0, the file
+    # claiming the source hash of the process that wrote it.
+    distributed = pytest.importorskip("distributed")
+    copy = _package_copy(tmp_path)
+    with open(copy / "sweep" / "api.py", "a") as fh:
+        fh.write("\n# another sweep\n")
+    out = tmp_path / "out.nc"
+    with distributed.LocalCluster(n_workers=0, processes=False, protocol="tcp://",
+                                  host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        worker = subprocess.Popen(
+            [sys.executable, "-m", "distributed.cli.dask_worker", cluster.scheduler_address,
+             "--nthreads", "1", "--no-nanny", "--no-dashboard"],
+            env=dict(os.environ, PYTHONPATH=str(copy)), cwd=copy,
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            with distributed.Client(cluster, set_as_default=False) as client:
+                client.wait_for_workers(1, timeout=120)
+            with pytest.raises(runner.RunError, match="runs another sweep"):
+                run(GRID, out, scheduler=cluster.scheduler_address)
+        finally:
+            worker.kill()
+            worker.wait(timeout=60)
+    assert not out.exists()
+
+
+def test_a_chunk_lost_on_the_cluster_names_it_and_the_run_resumes(tmp_path, monkeypatch,
+                                                                   capsys, reference):
+    # A worker killed while it computes (out of memory, preempted) fails its chunk once
+    # Dask has tried it on several: the run said "unexpected KilledWorker: ..." (or
+    # MemoryError, ...), as if it were a bug, naming neither the chunk nor the finished
+    # chunks kept, nor how to go on.
+    distributed = pytest.importorskip("distributed")
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / "out.nc"
+    real = runner.compute_chunk
+    fourth = design.build(config.loads(GRID).design).points(30, 40)
+
+    def dies_at_the_fourth_chunk(plan, *points):
+        if all(np.array_equal(a, b) for a, b in zip(points, fourth)):
+            raise MemoryError("Unable to allocate 1.00 GiB")
+        return real(plan, *points)
+
+    monkeypatch.setattr(runner, "compute_chunk", dies_at_the_fourth_chunk)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        argv = ["run", str(cfg), "-o", str(out), "--quiet", "--scheduler",
+                cluster.scheduler_address]
+        assert cli.main(argv) == 1
+        one_line_error(capsys.readouterr().err, "chunk 3 (points 30 to 39)",
+                       "failed on the Dask cluster", "MemoryError: Unable to allocate",
+                       f"kept in {store.partial_dir(out)}", "rerun the same command")
+        monkeypatch.setattr(runner, "compute_chunk", real)
+        assert cli.main(argv) == 0
+    assert not store.partial_dir(out).exists()
+    xr.testing.assert_equal(opened(out), reference["grid"])
+
+
+#: A worker preload (``dask worker --preload``): its third chunk waits for ever, so that
+#: the test decides when the scheduler goes (no sleeps).
+STALLED_WORKER = """
+import time
+import sweep.sweeps.runner as r
+real, count = r.compute_chunk, [0]
+def stalled(*a):
+    count[0] += 1
+    while count[0] >= 3:
+        time.sleep(0.1)
+    return real(*a)
+r.compute_chunk = stalled
+"""
+
+
+def _dask_process(tmp_path, command, *args):
+    """``dask scheduler`` or ``dask worker`` in a process of its own, this sweep first on
+    its path (and ``tmp_path``, for preloads)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(tmp_path)]))
+    return subprocess.Popen([sys.executable, "-m", f"distributed.cli.dask_{command}",
+                             *args, "--no-dashboard"], env=env, cwd=tmp_path,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def test_a_scheduler_lost_mid_run_is_one_line(tmp_path):
+    # distributed's client logged its failed reconnection, two tracebacks in 35 lines, on
+    # stderr before the run's own one-line error.
+    pytest.importorskip("distributed")
+    (tmp_path / "stalled_worker.py").write_text(STALLED_WORKER)
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(DOE)
+    out = tmp_path / "out.nc"
+    port = _closed_port()
+    address = f"tcp://127.0.0.1:{port}"
+    scheduler = _dask_process(tmp_path, "scheduler", "--host", "127.0.0.1", "--port",
+                              str(port))
+    worker = _dask_process(tmp_path, "worker", address, "--nthreads", "1", "--no-nanny",
+                           "--preload", "stalled_worker")
+    try:
+        run = subprocess.Popen(
+            [sys.executable, "-m", "sweep", "run", str(cfg), "-o", str(out), "--quiet",
+             "--scheduler", address, "--scheduler-timeout", "5"],
+            env=dict(os.environ, PYTHONPATH=str(ROOT)), cwd=tmp_path,
+            stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 120
+        while len(list(store.partial_dir(out).glob("chunk_*.npz"))) < 2:
+            assert run.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        scheduler.kill()
+        assert run.wait(timeout=120) == 1
+        one_line_error(run.stderr.read(), "chunk 2 (points 8,000 to 11,999)",
+                       "failed on the Dask cluster", "the 2 finished chunks are kept")
+    finally:
+        for process in (scheduler, worker):
+            process.kill()
+            process.wait(timeout=60)
+
+
 # --------------------------------------------------------------------------- the command line
 
 def _non_sweep_netcdf(path):
@@ -656,6 +855,19 @@ def test_input_faults_end_in_one_line(tmp_path, capsys, case):
     one_line_error(capsys.readouterr().err, *expect)
     assert not (tmp_path / "out.nc.partial").exists()
     assert not (tmp_path / "out.nc.lock").exists()
+
+
+@pytest.mark.parametrize("under", ["c.toml", "c.toml/sub"])
+def test_a_file_where_the_output_directory_should_be_is_named(tmp_path, capsys, under):
+    # `-o c.toml/out.nc` said "cannot write in .../c.toml: c.toml: File exists", as if the
+    # file's existence were the fault, not that it is no directory.
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / under / "out.nc"
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 1
+    line = one_line_error(capsys.readouterr().err, f"{cfg} is not a directory", "-o")
+    assert "File exists" not in line
+    assert cfg.read_text() == GRID and sorted(p.name for p in tmp_path.iterdir()) == ["c.toml"]
 
 
 @pytest.mark.parametrize("stderr", ["closed pipe", "/dev/full"])

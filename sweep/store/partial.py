@@ -10,9 +10,10 @@ HDF5 file is not crash-safe, and a resumed run rebuilds it from the chunk files.
 Nothing found on disk is trusted without proof:
 
 * every chunk file records what it belongs to (the manifest's hash, the configuration's
-  hash, its index and point range) and a SHA-256 of its values; :meth:`PartialStore.load_chunk`
-  checks all of it and turns down (for recomputation) a file that is unreadable, damaged or
-  from another run, counting why in :attr:`PartialStore.rejected`;
+  hash, its index and point range) and a SHA-256 of its points and of its values;
+  :meth:`PartialStore.load_chunk` checks all of it and turns down (for recomputation) a file
+  that is unreadable, damaged, from another run or computed at other points, counting why
+  in :attr:`PartialStore.rejected`;
 * a partial directory without a readable manifest (e.g. left by a ``kill -9`` during the
   final clean-up, which removes the manifest first) holds nothing attributable: its chunk
   files are discarded, never resumed (:func:`remove_untrusted`).
@@ -53,9 +54,10 @@ __all__ = ["PartialStore", "ResumeError", "LockError", "OutputLock", "partial_di
 
 #: Format of the manifest; version 2 introduced self-describing, checksummed chunk files.
 MANIFEST_FORMAT = "sweep-partial/2"
-#: Format tag stored in every chunk file's metadata; version 2 keeps any numbers with a
-#: chunk (its ``tally``), version 1 its two times only (such chunks are recomputed).
-CHUNK_FORMAT = "sweep-chunk/2"
+#: Format tag stored in every chunk file's metadata; version 3 records the SHA-256 of the
+#: points the chunk was computed at, version 2 keeps any numbers with a chunk (its
+#: ``tally``), version 1 its two times only (older chunks are recomputed).
+CHUNK_FORMAT = "sweep-chunk/3"
 #: Attempts at taking the lock while its holder is removing the lock file.
 _LOCK_ATTEMPTS = 5
 
@@ -299,6 +301,10 @@ def _chunk_problem(meta, data, expect):
     if [meta.get("index"), meta.get("start"), meta.get("stop")] != [
             expect["index"], expect["start"], expect["stop"]]:
         return "misplaced"
+    if meta.get("points_sha256") != expect["points_sha256"]:
+        # The same configuration can give other points (a sampler of a new scipy or
+        # numpy): the values belong to the points they were computed at.
+        return "computed at other points"
     n = expect["stop"] - expect["start"]
     if set(data) != set(expect["variables"]) or any(a.shape != (n,) for a in data.values()):
         return "incomplete"
@@ -346,7 +352,8 @@ class PartialStore:
     _CHECKED = {
         "config_sha256": "configuration",
         "sweep_version": "sweep version",
-        "sweep_source_sha256": "sweep source code (the package was edited or reinstalled)",
+        "sweep_source_sha256": ("sweep source code or data (the package was edited or "
+                                "reinstalled, or its error model rebuilt)"),
         "output": "output file name",
         "n_points": "number of design points",
         "chunk_size": "chunk size",
@@ -445,11 +452,12 @@ class PartialStore:
         return done
 
     def save_chunk(self, index: int, start: int, stop: int, arrays: Mapping[str, Any],
-                   tally: Sequence[float]) -> None:
+                   tally: Sequence[float], points: Mapping[str, Any] | None = None) -> None:
         """Save a finished chunk atomically (a crash leaves it absent or complete).
 
         The file records the manifest's hash, the configuration's hash, ``index``, the
-        point range and the SHA-256 of the values, all checked by :meth:`load_chunk`.
+        point range and the SHA-256 of the points and of the values, all checked by
+        :meth:`load_chunk`.
 
         Parameters
         ----------
@@ -460,18 +468,23 @@ class PartialStore:
         tally : sequence of float
             Numbers kept with the chunk (the runner's times and counts), so that a resumed
             run still reports them for the whole dataset.
+        points : dict of str -> ndarray, optional
+            The parameters of the chunk's points, by name.
         """
         payload = {name: np.asarray(a) for name, a in arrays.items()}
         meta = {"format": CHUNK_FORMAT, "identity": self.identity,
                 "config_sha256": self.manifest.get("config_sha256"), "index": int(index),
                 "start": int(start), "stop": int(stop),
-                "tally": [float(t) for t in tally], "sha256": _digest(payload)}
+                "tally": [float(t) for t in tally], "points_sha256": _digest(points or {}),
+                "sha256": _digest(payload)}
         payload["__meta__"] = np.array(json.dumps(meta))
         _write_atomic(self._chunk_path(index), lambda fh: np.savez(fh, **payload))
 
-    def load_chunk(self, index: int, start: int, stop: int
+    def load_chunk(self, index: int, start: int, stop: int,
+                   points: Mapping[str, Any] | None = None
                    ) -> tuple[dict, tuple[float, ...]] | None:
-        """Load and verify a finished chunk; None if it is missing, damaged or foreign.
+        """Load and verify a finished chunk; None if it is missing, damaged, foreign or
+        computed at other points.
 
         A rejected chunk is counted in :attr:`rejected` under its reason.
 
@@ -479,6 +492,8 @@ class PartialStore:
         ----------
         index, start, stop : int
             Chunk number and the flat range it must cover.
+        points : dict of str -> ndarray, optional
+            The points it must have been computed at (as given to :meth:`save_chunk`).
 
         Returns
         -------
@@ -498,7 +513,8 @@ class PartialStore:
             return None
         expect = {"identity": self.identity, "config_sha256":
                   self.manifest.get("config_sha256"), "index": index, "start": start,
-                  "stop": stop, "variables": self.manifest["variables"]}
+                  "stop": stop, "variables": self.manifest["variables"],
+                  "points_sha256": _digest(points or {})}
         problem = _chunk_problem(meta, data, expect)
         if problem is not None:
             self.rejected[problem] += 1

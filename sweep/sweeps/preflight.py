@@ -123,6 +123,12 @@ class Preflight:
         return self.n_points * self.value_bytes + self.n_chunks * limits.CHUNK_FILE_OVERHEAD
 
     @property
+    def chunk_memory(self) -> int:
+        """Memory one chunk takes while it is computed [bytes] (an estimate from above)."""
+        points = min(self.chunk_size, self.n_points)
+        return points * (limits.CHUNK_POINT_BYTES + 2 * self.value_bytes)
+
+    @property
     def disk_needed(self) -> int:
         """Peak disk use of the run: the chunk files plus the assembled output [bytes]."""
         return self.output_bytes + self.chunk_file_bytes
@@ -142,6 +148,19 @@ class Preflight:
                     f"limit of {lim.max_chunks:,} chunks; use a larger --chunk-size or pass "
                     "--force")
         return None
+
+    def chunk_memory_refusal(self) -> str | None:
+        """Why one chunk would not fit in this machine's memory, or None.
+
+        A chunk is computed whole: one larger than the machine was ended by the OOM killer
+        (no message) or failed on some small allocation at last."""
+        memory = physical_memory()
+        if memory is None or self.chunk_memory <= memory:
+            return None
+        return (f"a chunk of {count(min(self.chunk_size, self.n_points), 'point')} needs up "
+                f"to {format_bytes(self.chunk_memory)} of memory, more than this machine's "
+                f"{format_bytes(memory)}; use a smaller --chunk-size (chunk_size=) or pass "
+                "--force (force=True)")
 
     def disk_refusal(self, saved: int = 0) -> str | None:
         """Why the free disk does not suffice, or None.

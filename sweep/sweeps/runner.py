@@ -60,6 +60,7 @@ import contextlib
 import dataclasses
 import datetime as _dt
 import errno
+import functools
 import hashlib
 import importlib.metadata
 import os
@@ -314,21 +315,28 @@ def _version(dist):
         return "unknown"
 
 
-def source_sha256() -> str:
-    """Hash of the package's Python sources.
+#: The package's files that results depend on: its code, and the data it reads (the error
+#: model of method = "auto", which ``sweep report error-model`` rewrites in place).
+SOURCE_PATTERNS = ("**/*.py", "data/*.npz")
 
-    Two runs of one configuration give identical results only with identical code; the
-    version number alone does not see a local edit. Resuming, and reusing an existing
-    output, therefore also require the same source hash.
+
+def source_sha256() -> str:
+    """Hash of the package's sources: its Python code and the data it ships.
+
+    Two runs of one configuration give identical results only with identical code and
+    data; the version number alone does not see a local edit or a rebuilt error model.
+    Resuming, and reusing an existing output, therefore also require the same hash.
 
     Returns
     -------
     str
-        Hex SHA-256 over the relative path and bytes of every ``sweep/**/*.py``.
+        Hex SHA-256 over the relative path and bytes of every file matching
+        :data:`SOURCE_PATTERNS` under ``sweep/``.
     """
     package = Path(__file__).resolve().parents[1]
+    files = {path for pattern in SOURCE_PATTERNS for path in package.glob(pattern)}
     h = hashlib.sha256()
-    for path in sorted(package.rglob("*.py")):
+    for path in sorted(files):
         h.update(path.relative_to(package).as_posix().encode())
         h.update(path.read_bytes())
     return h.hexdigest()
@@ -466,6 +474,46 @@ def _close_unconnected(exc, client_type):
             return
 
 
+class WorkerMismatch(RuntimeError):
+    """A Dask worker runs another sweep (code or data) than the process writing the file."""
+
+
+@functools.lru_cache(maxsize=1)
+def _loaded_source():
+    """:func:`source_sha256` of this process, taken once: what a long-lived worker
+    imported, whatever was installed since."""
+    return source_sha256()
+
+
+def _compute_on_worker(source, plan, *points):
+    """:func:`compute_chunk` on a Dask worker whose sweep has the hash ``source``.
+
+    A worker imports its own sweep: one left with another version computed chunks with
+    its code while the file recorded the hash of the process that wrote it (exit 0)."""
+    here = _loaded_source()
+    if here != source:
+        from distributed import get_worker  # noqa: PLC0415 -- only on a worker
+
+        raise WorkerMismatch(
+            f"the Dask worker {get_worker().address} runs another sweep than this process "
+            f"(source sha256 {here[:12]}... there, {source[:12]}... here); install the "
+            "same sweep on every worker")
+    return compute_chunk(plan, *points)
+
+
+def _chunk_result(fut, index, start, stop):
+    """What the future of chunk ``index`` (points ``start .. stop-1``) holds; a chunk the
+    cluster could not compute (a worker with another sweep, one killed while computing,
+    a task the scheduler could not load) is a :class:`ChunkFailed` naming it."""
+    try:
+        return fut.result()
+    except WorkerMismatch as exc:
+        raise ChunkFailed(str(exc)) from exc
+    except Exception as exc:  # noqa: BLE001 - whatever the worker raised, one line
+        raise ChunkFailed(f"chunk {index} (points {start:,} to {stop - 1:,}) failed on the "
+                          f"Dask cluster: {type(exc).__name__}: {exc}") from exc
+
+
 def _dask_executor(plan, tasks, client):
     from distributed import as_completed
 
@@ -475,10 +523,12 @@ def _dask_executor(plan, tasks, client):
     meta = {}
     token = uuid.uuid4().hex  # task keys unique to this run on a shared scheduler
     tasks = iter(tasks)
+    source = source_sha256()
 
     def submit_next():
         for index, start, stop, points in tasks:
-            fut = client.submit(compute_chunk, plan, *(points[k] for k in _config.PARAMETERS),
+            fut = client.submit(_compute_on_worker, source, plan,
+                                *(points[k] for k in _config.PARAMETERS),
                                 pure=False, key=f"sweep-chunk-{index}-{token}")
             meta[fut.key] = (index, start, stop, points)
             futures.add(fut)
@@ -489,8 +539,8 @@ def _dask_executor(plan, tasks, client):
         if not submit_next():
             break
     for fut in futures:
-        arrays, seconds, caveats = fut.result()
         index, start, stop, points = meta.pop(fut.key)
+        arrays, seconds, caveats = _chunk_result(fut, index, start, stop)
         fut.release()
         yield index, start, stop, points, arrays, seconds, caveats
         submit_next()
@@ -543,6 +593,10 @@ class RunError(RuntimeError):
     """A run cannot start or go on: refused by the preflight, a bad output path, a full
     disk, an unreachable scheduler. The message is one line naming the file, value or
     address and the cause."""
+
+
+class ChunkFailed(RunError):
+    """A chunk the Dask cluster could not compute (the finished ones are kept)."""
 
 
 @dataclasses.dataclass
@@ -615,6 +669,7 @@ def _check_output_path(output):
         raise RunError(f"{output} is a directory; give the output file name with -o")
     if output.exists() and not output.is_file():
         raise RunError(f"{output} exists and is not a regular file; choose another -o")
+    _check_parent_is_a_directory(output)
     longest = len(os.fsencode(store.partial_dir(output).name))
     try:
         name_max = os.pathconf(_existing_ancestor(output.parent), "PC_NAME_MAX")
@@ -624,6 +679,15 @@ def _check_output_path(output):
         raise RunError(f"output name too long: {output.name[:40]}... makes a "
                        f"{longest}-byte file name ({store.partial_dir(output).name[-20:]} "
                        f"included); the file system allows {name_max}")
+
+
+def _check_parent_is_a_directory(output):
+    """Refuse an output under a file (``-o c.toml/out.nc``): creating its directory said
+    "File exists" or "Not a directory" of a path the user never named as a directory."""
+    ancestor = _existing_ancestor(output.parent)
+    if not ancestor.is_dir():
+        raise RunError(f"{ancestor} is not a directory, so {output} cannot be written "
+                       "under it; choose another -o")
 
 
 def _check_not_the_config(output, source):
@@ -729,11 +793,19 @@ def _preflight(job, force, limits):
         raise TypeError(f"limits must be a sweep.sweeps.preflight.Limits, got "
                         f"{type(limits).__name__} {limits!r:.60}")
     refusal = job.pre.refusal(limits or _preflight_mod.Limits())
-    if refusal is not None:
-        if not force:
-            raise RunError(refusal)
-        job.log(f"--force: {refusal.split(';')[0]}")
+    if refusal is None and job.output is not None:  # in memory: the dataset's check first
+        refusal = job.pre.chunk_memory_refusal()
+    _refuse_unless_forced(job, refusal, force)
     _check_device(job)
+
+
+def _refuse_unless_forced(job, refusal, force, flag="--force"):
+    """Raise ``refusal`` (a RunError) unless ``force``, which only logs it."""
+    if refusal is None:
+        return
+    if not force:
+        raise RunError(refusal)
+    job.log(f"{flag}: {refusal.split(';')[0]}")
 
 
 def _check_device(job):
@@ -924,10 +996,10 @@ def _tasks(job, partial, done, behind, totals, bar) -> Iterator[tuple]:
     on the way (in order, so storage chunks are written sequentially). A saved chunk that
     fails verification is recomputed."""
     for index, (start, stop) in enumerate(job.chunks):
-        need_points = index not in done or job.layout.per_point
-        points = _chunk_points(job, start, stop) if need_points else None
+        # Saved chunks too: they must have been computed at these very points.
+        points = _chunk_points(job, start, stop)
         if index in done:
-            loaded = partial.load_chunk(index, start, stop)
+            loaded = partial.load_chunk(index, start, stop, points)
             if loaded is not None:
                 arrays, (wall, kernel, *caveats) = loaded
                 behind.write(start, stop, arrays, points)
@@ -937,8 +1009,6 @@ def _tasks(job, partial, done, behind, totals, bar) -> Iterator[tuple]:
             done.discard(index)
             job.result.recomputed_chunks += 1
             bar.update(-(stop - start))  # it was counted as done at the start
-            if points is None:
-                points = _chunk_points(job, start, stop)
         yield index, start, stop, points
 
 
@@ -981,7 +1051,7 @@ def _stream_chunks(job, partial, done, behind, quiet, client):
             # (so its own saving and writing count towards the next chunk).
             now = time.perf_counter()
             wall, last = now - last, now
-            partial.save_chunk(index, start, stop, arrays, [wall, kernel, *caveats])
+            partial.save_chunk(index, start, stop, arrays, [wall, kernel, *caveats], points)
             behind.write(start, stop, arrays, points)
             totals.add(wall, kernel, caveats)
             result.computed_points += stop - start
@@ -1089,6 +1159,8 @@ def _write_failure(job, partial, exc):
     saved = len(partial.finished())
     keep = (f"the {count(saved, 'finished chunk')} {'is' if saved == 1 else 'are'} kept in "
             f"{partial.dir}: {job.resume_advice}")
+    if isinstance(exc, ChunkFailed):
+        return RunError(f"{exc}; {keep}")
     if _disk_is_full(exc, partial.dir):
         return RunError(f"{_full_disk_text(exc, partial.dir)}; {keep} once space is freed")
     if isinstance(exc, OSError):
@@ -1290,11 +1362,8 @@ def run_in_memory(cfg: _config.Config | str | Path, *, quiet: bool = False,
     job = _prepare(cfg, None, chunk_size, quiet, log, in_memory=True)
     job.progress_interval = progress_interval
     _preflight(job, force, limits)
-    refusal = job.pre.memory_refusal()
-    if refusal is not None:
-        if not force:
-            raise RunError(refusal)
-        job.log(f"force: {refusal.split(';')[0]}")
+    refusal = job.pre.memory_refusal() or job.pre.chunk_memory_refusal()
+    _refuse_unless_forced(job, refusal, force, flag="force")
     client, own = _connect(scheduler, scheduler_timeout)
     try:
         writer = _compute_in_memory(job, quiet, client, scheduler)
