@@ -636,9 +636,11 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
     Field("e", np.dtype(np.float64), METHODS["numeric"].long_name,
           METHODS["numeric"].description, fill_value=math.nan),
     Field("sticks", np.dtype(np.bool_), "bead does not rebound",
-          "true if the impact ends without rebound, e = 0 (Algorithm 1, phase 3: v = 0 with "
-          "u > 0, or converged to rest); false if it rebounds, if the point is invalid, or if "
-          "the step budget ran out before the outcome was decided (status)",
+          "true where e = 0 is reported (status stuck or at_rest): the impact ends without "
+          "rebound (Algorithm 1, phase 3: v = 0 with u > 0, or converged to rest), or a creep "
+          "leaves with an e below its bound e_err (at_rest; e.g. (1.5, 1.5, 1000, 0) leaves "
+          "with e ~ 7e-16); false if it rebounds, if the point is invalid, or if the step "
+          "budget ran out before the outcome was decided (status)",
           derived=_sticks, flags={"rebounds": 0, "sticks": 1}),
     Field("t_f", np.dtype(np.float64), "impact duration T_f",
           "scaled time T_f at the end of the impact (report eq. (3)), in units of T of "
