@@ -653,8 +653,8 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
           "a creep's slide along its slow branch was not followed (its landing point or "
           "duration beyond double precision, though it may leave at a finite time with an e "
           "below it); where the budget ran out, the time reached. Read off the march that "
-          "gave e: near grazing under a load the crossing of u = 0 is ill-conditioned while e "
-          "is not (docs/accuracy.md, section 5)", fill_value=math.nan),
+          "gave e; near grazing under a load, the crossing at speed e about the march's "
+          "vertex (docs/accuracy.md, section 5)", fill_value=math.nan),
     Field("u_max", np.dtype(np.float64), "maximum compression u_M",
           "scaled maximum compression u(tau_0) where v = 0 (Algorithm 1, phase 1), in units "
           "of delta = v0 T of eq. (2); NaN where the point was decided before it (a bead "
