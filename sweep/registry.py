@@ -636,9 +636,11 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
     Field("e", np.dtype(np.float64), METHODS["numeric"].long_name,
           METHODS["numeric"].description, fill_value=math.nan),
     Field("sticks", np.dtype(np.bool_), "bead does not rebound",
-          "true if the impact ends without rebound, e = 0 (Algorithm 1, phase 3: v = 0 with "
-          "u > 0, or converged to rest); false if it rebounds, if the point is invalid, or if "
-          "the step budget ran out before the outcome was decided (status)",
+          "true where e = 0 is reported (status stuck or at_rest): the impact ends without "
+          "rebound (Algorithm 1, phase 3: v = 0 with u > 0, or converged to rest), or a creep "
+          "leaves with an e below its bound e_err (at_rest; e.g. (1.5, 1.5, 1000, 0) leaves "
+          "with e ~ 7e-16); false if it rebounds, if the point is invalid, or if the step "
+          "budget ran out before the outcome was decided (status)",
           derived=_sticks, flags={"rebounds": 0, "sticks": 1}),
     Field("t_f", np.dtype(np.float64), "impact duration T_f",
           "scaled time T_f at the end of the impact (report eq. (3)), in units of T of "
@@ -650,7 +652,9 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
           "precision can count (kappa = 0 near critical damping with alpha ~ 100), or where "
           "a creep's slide along its slow branch was not followed (its landing point or "
           "duration beyond double precision, though it may leave at a finite time with an e "
-          "below it); where the budget ran out, the time reached", fill_value=math.nan),
+          "below it); where the budget ran out, the time reached. Read off the march that "
+          "gave e; near grazing under a load, the crossing at speed e about the march's "
+          "vertex (docs/accuracy.md, section 5)", fill_value=math.nan),
     Field("u_max", np.dtype(np.float64), "maximum compression u_M",
           "scaled maximum compression u(tau_0) where v = 0 (Algorithm 1, phase 1), in units "
           "of delta = v0 T of eq. (2); NaN where the point was decided before it (a bead "

@@ -49,7 +49,7 @@ from sweep.kernels.contact import in_domain, make_law
 from sweep.kernels.lanes import N_ENDING, ending_at, march_lanes
 from sweep.kernels.march import march
 from sweep.kernels.balance import ROUNDING
-from sweep.kernels.outcome import decide
+from sweep.kernels.outcome import decide, exit_time
 from sweep.kernels.regimes import (creeps_from_start, deep_well, kappa_zero_free,
                                     linear_overdamped, undamped)
 from sweep.kernels.stepsize import policy, resolution
@@ -164,7 +164,7 @@ def _negligible(s):
 def _decided(c, end, steps):
     """The :class:`Result` of a march that ended with ``end`` at resolution ``steps``."""
     e, status, err, e_q, e_v = decide(c, end, steps)
-    return Result(e, end.t, end.u_max, end.n, status, err, e_q, e_v)
+    return Result(e, exit_time(c, end, e, status, err), end.u_max, end.n, status, err, e_q, e_v)
 
 
 # Inlined (one call site in each of solve_point and _refined): a dispatcher level costs
