@@ -178,10 +178,12 @@ def jit(entry: bool = False, **options):
     Compile time: every dispatcher a kernel calls costs 0.1-0.3 s of its own (its machine
     code, which includes all it calls again), and every ``inline="always"`` call site costs
     the callee's front end again and deep copies of its IR, everything inlined into it
-    included, whose cost grows with its blocks times its variables: at each level of a nest
-    of inlined helpers the whole subtree is copied once more. So what runs per step is
-    inlined, in as few levels as will do; what runs once per point or event is compiled
-    once and called (``benchmarks/run_all.py --only startup_compile_fresh``).
+    included (numba's copies grow with its blocks times its variables; with
+    :func:`_share_inline_copies`, with their sum): at each level of a nest of inlined
+    helpers the whole subtree is copied once more. So what runs per step is inlined, in as
+    few levels as will do; what runs once per point or event, or at a step only where a
+    cheap test says it may, is compiled once and called (``benchmarks/run_all.py --only
+    startup_compile_fresh``).
 
     A called helper gets no Python or C wrapper (only kernels call it: building the
     wrappers that unbox its named-tuple arguments cost about 0.5 s of the first calls); one
