@@ -515,26 +515,26 @@ def _creep_rules(st, c, k, K, e_tol):
 
 @jit(inline="always")
 def _rules(st, c, k, K, rest_tol, e_tol):
-    """The stopping rules and the creep jump at a step's end: ``(state, Ending)``. At most
-    steps none of them can apply: the cheap tests here say so, and only where one may
-    apply is :func:`_judged` called (compiled once, not copied into every driver)."""
-    may_creep = (st.phase > 1 or st.p.capped) and st.v + st.w >= 0.0
-    may_rest = c.gtilde > 0.0 and _at_rest(st.u, st.v, k.ubar, rest_tol)
-    if may_creep or may_rest or _may_not_return(st.u, st.w, st.r, st.v, st.phase,
-                                                st.energy_in_phase1, st.q_stuck, c):
-        return _judged(st, c, k, K, rest_tol, e_tol)
-    return st, Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
-
-
-@jit()
-def _judged(st, c, k, K, rest_tol, e_tol):
-    """:func:`_rules` at a step's end where one of them may apply."""
+    """The stopping rules and the creep jump at a step's end: ``(state, Ending)``."""
     # The creep rules apply inside R (v >= -gamma u^beta / 2), which phase 1 always is:
     # there only under heavy damping, where the bead may creep into a well for ever.
     if (st.phase > 1 or st.p.capped) and st.v + st.w >= 0.0:
         st, end = _creep_rules(st, c, k, K, e_tol)
         if end.kind != GOING:
             return st, end
+    # At most steps neither the rest box nor the energy rule can apply: the cheap tests
+    # here say so, and only where one may is _settled called (compiled once, not copied
+    # into every driver; 1.5-4 s of the lanes' first compile with its helpers inlined).
+    if (c.gtilde > 0.0 and _at_rest(st.u, st.v, k.ubar, rest_tol)) or _may_not_return(
+            st.u, st.w, st.r, st.v, st.phase, st.energy_in_phase1, st.q_stuck, c):
+        return _settled(st, c, k, rest_tol)
+    return st, Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
+
+
+@jit()
+def _settled(st, c, k, rest_tol):
+    """The rest box and the energy rule at a step's end where one may apply: ``(state,
+    Ending)``, the Ending's kind GOING where neither does."""
     # At g~ = 0 the rest box is no proof of rest (a bead in it may still leave with
     # e up to its energy, ~1e-8): the creep rules decide there.
     if c.gtilde > 0.0 and _at_rest(st.u, st.v, k.ubar, rest_tol):
