@@ -67,12 +67,16 @@ class Broadcast:
 
 
 def _flat(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """``a`` broadcast to ``shape``, flat and C-contiguous, writeable where copied."""
+    """``a`` broadcast to ``shape``, flat, C-contiguous and writeable."""
     # Not np.broadcast_arrays: its views carry numpy's "warn on write" flag, which numba's
     # typeof turns into a FutureWarning on the user's stderr when a call compiles or loads
     # a kernel.
     if a.shape == shape:
-        return np.ascontiguousarray(a.reshape(-1))
+        flat = np.ascontiguousarray(a.reshape(-1))
+        # A read-only array (the user's, a memory map's, np.broadcast_to's) is a numba type
+        # of its own: passed as such, it compiled every kernel again (the integrator's
+        # _kernel: a second first call of ~15 s, cached beside the first).
+        return flat if flat.flags.writeable else flat.copy()
     return np.array(np.broadcast_to(a, shape), order="C").reshape(-1)
 
 

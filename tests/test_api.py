@@ -272,3 +272,16 @@ def test_broadcast_inputs_reach_the_kernels_without_a_warning(shapes):
         for flat, full in zip(b.flat, expected):
             assert numba.typeof(flat).mutable
             assert np.array_equal(flat, full.reshape(-1))
+
+
+def test_a_read_only_input_compiles_no_kernel_again():
+    # numba types a read-only array apart from a writeable one: passed through, it compiled
+    # the integrator's kernel a second time (~15 s).
+    from sweep.kernels import integrator
+    gamma = np.array([0.01, 0.1])
+    first = sweep.integrate(1.5, 1.5, gamma, 0.1)
+    signatures = list(integrator._kernel.signatures)
+    gamma.flags.writeable = False
+    again = sweep.integrate(1.5, 1.5, gamma, np.full(2, 0.1))
+    assert list(integrator._kernel.signatures) == signatures
+    assert np.array_equal(again.e, first.e) and not gamma.flags.writeable

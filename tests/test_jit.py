@@ -188,3 +188,36 @@ def test_a_called_helper_serves_kernels_and_refuses_python():
         helper(1.5)
     inlined = _jit.jit(inline="always")(plus_one)
     assert inlined(1.5) == 2.5
+
+
+def test_the_inliner_copies_a_package_callee_with_one_memo(monkeypatch):
+    """While a package kernel compiles, numba's inliner copies each callee with one memo
+    (``_jit._share_inline_copies``): the blocks of the copy share one copy of the scope, as
+    the callee's blocks share theirs. Other code's compiles copy as numba does (a scope per
+    block). Inlined twice, the callee still gives each call site its own variables."""
+    from numba.core import inline_closurecall as icc
+
+    if not _jit._share_inline_copies():
+        pytest.skip("numba's inline_ir is not one INLINE_IR_SOURCES knows")
+    seen = []
+    check = icc.callee_ir_validator
+
+    def spy(callee_ir):     # numba validates the first copy of the callee
+        seen.append(len({id(b.scope) for b in callee_ir.blocks.values()}))
+        check(callee_ir)
+    monkeypatch.setattr(icc, "callee_ir_validator", spy)
+
+    def clipped(x):
+        if x < 0.0:
+            return 0.0
+        y = x * x
+        return y if y < 4.0 else 4.0
+
+    def kernel(a, b):
+        return clipped(a) + 10.0 * clipped(b)
+
+    clipped = numba.njit(inline="always")(clipped)
+    assert _as_if_in("sweep.kernels.fake", kernel)(-1.0, 1.5) == 22.5
+    assert seen == [1, 1]
+    assert _as_if_in("elsewhere", kernel)(3.0, 1.0) == 14.0
+    assert seen[2] > 1 and seen[3] > 1

@@ -211,52 +211,62 @@ def _polynomial(x, kind):
 
 @jit(inline="always")
 def _forces(w, beta, gamma, gtilde, pd, pb, pa):
-    """``(u', w', r')`` from the powers ``(u^(beta-1), u^beta, u^alpha)`` (:func:`_rhs`,
+    """``(u', w', r')`` from the powers ``(u^(beta-1), u^beta, u^alpha)`` (:func:`rhs`,
     and the models' copies of it, :func:`rhs_at`)."""
     v = w - gamma * pb
     return v, gtilde - pa, -gamma * pb * (gtilde - pa - gamma * beta * pd * v)
 
 
-def _rhs(u, w, c):
-    """Right-hand side of (4) and of the dissipation integral: returns ``(u', w', r')``.
+def _rhs_with(power):
+    """:func:`rhs` taking the coded powers with ``power`` (:func:`_power`, inlined or
+    called)."""
 
-    The energy dissipated by the damper is ``q = int gamma beta u^(beta-1) v^2 dtau``; by
-    parts (``beta u^(beta-1) v = d(u^beta)/dtau``) ``q = gamma v u_+^beta + r`` with
-    ``r' = -gamma u_+^beta v'``, ``v' = g~ - u_+^alpha - gamma beta u_+^(beta-1) v``. The
-    integrand of r has only powers >= 1 of u, as smooth at u = 0 as the rest of (4), where
-    that of q (``u^(beta-1)``, e.g. ``u^(1/4)`` for TTI) would cost the method its order.
-    Carrying r gives the CoR from the energy balance ``e^2 = 1 - 2 q(T_f) = 1 - 2 r(T_f)``
-    (exactly 1 without damping), far better conditioned than ``e = -w`` after a swing
-    through a deep load well.
+    def rhs(u, w, c):
+        """Right-hand side of (4) and of the dissipation integral: returns ``(u', w', r')``.
 
-    For integer exponents (``c.smooth``) the polynomials are continued to u < 0: the motion
-    ends at u = 0, but the stages of the step that reaches it probe just beyond, where the
-    kink of u_+ would cost the step its order (errors up to 1e-9 near grazing, growing with
-    where in the step the floor is reached).
-    """
-    if c.smooth:
-        pd = _polynomial(u, c.kd)
-        pb = u * pd
-        pa = pb if c.alpha == c.beta else _polynomial(u, c.ka)
-    elif c.kd == _KIND_GENERAL and c.ka == _KIND_GENERAL and u > 0.0:
-        # General exponents: one log for both powers (a pow is a log and an exp).
-        lu = math.log(u)
-        pd = math.exp((c.beta - 1.0) * lu)
-        pb = u * pd
-        pa = math.exp(c.alpha * lu)
-    else:
-        pd = ppow(u, c.beta - 1.0, c.kd)
-        pb = u * pd if u > 0.0 else 0.0
-        # Equal exponents (linear, Kuwabara-Kono) share the one power: it is most of a
-        # stage's cost.
-        pa = pb if c.alpha == c.beta else ppow(u, c.alpha, c.ka)
-    return _forces(w, c.beta, c.gamma, c.gtilde, pd, pb, pa)
+        The energy dissipated by the damper is ``q = int gamma beta u^(beta-1) v^2 dtau``; by
+        parts (``beta u^(beta-1) v = d(u^beta)/dtau``) ``q = gamma v u_+^beta + r`` with
+        ``r' = -gamma u_+^beta v'``, ``v' = g~ - u_+^alpha - gamma beta u_+^(beta-1) v``. The
+        integrand of r has only powers >= 1 of u, as smooth at u = 0 as the rest of (4), where
+        that of q (``u^(beta-1)``, e.g. ``u^(1/4)`` for TTI) would cost the method its order.
+        Carrying r gives the CoR from the energy balance ``e^2 = 1 - 2 q(T_f) = 1 - 2 r(T_f)``
+        (exactly 1 without damping), far better conditioned than ``e = -w`` after a swing
+        through a deep load well.
+
+        For integer exponents (``c.smooth``) the polynomials are continued to u < 0: the motion
+        ends at u = 0, but the stages of the step that reaches it probe just beyond, where the
+        kink of u_+ would cost the step its order (errors up to 1e-9 near grazing, growing with
+        where in the step the floor is reached).
+        """
+        if c.smooth:
+            pd = _polynomial(u, c.kd)
+            pb = u * pd
+            pa = pb if c.alpha == c.beta else _polynomial(u, c.ka)
+        elif c.kd == _KIND_GENERAL and c.ka == _KIND_GENERAL and u > 0.0:
+            # General exponents: one log for both powers (a pow is a log and an exp).
+            lu = math.log(u)
+            pd = math.exp((c.beta - 1.0) * lu)
+            pb = u * pd
+            pa = math.exp(c.alpha * lu)
+        else:
+            pd = power(u, c.beta - 1.0, c.kd)
+            pb = u * pd if u > 0.0 else 0.0
+            # Equal exponents (linear, Kuwabara-Kono) share the one power: it is most of a
+            # stage's cost.
+            pa = pb if c.alpha == c.beta else power(u, c.alpha, c.ka)
+        return _forces(w, c.beta, c.gamma, c.gtilde, pd, pb, pa)
+    return rhs
 
 
-#: :func:`_rhs` inlined: for the stages of a step, most of the march's cost.
-rhs = jit(inline="always")(_rhs)
+#: The right-hand side inlined: for the stages of a step, most of the march's cost.
+rhs = jit(inline="always")(_rhs_with(ppow))
 #: The same compiled once and called: where a march starts or jumps (once per point).
-rhs_called = jit()(_rhs)
+rhs_called = jit()(_rhs_with(ppow))
+#: :func:`rhs` with the coded powers called (:func:`ppow_called`): the laws that
+#: :func:`rhs_at` has no copy for. Only exponents neither integer nor general take that
+#: branch (none of the benchmarks' draws): inlined, _power's ten branches, twice, were
+#: 1.3 s of the lanes' first compile (copies of their IR at every level of inlining).
+_rhs_coded_called = jit(inline="always")(_rhs_with(ppow_called))
 
 
 def _model_rhs(alpha, beta):
@@ -310,7 +320,7 @@ def rhs_at(u, w, F, I, row):
             return _rhs_m2(u, w, gamma, gtilde)
         if k == 3:
             return _rhs_m3(u, w, gamma, gtilde)
-    return rhs(u, w, law_at(F, I, row))
+    return _rhs_coded_called(u, w, law_at(F, I, row))
 
 
 @jit(inline="always")
