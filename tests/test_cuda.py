@@ -143,6 +143,16 @@ def test_work_order_groups_points_of_similar_parameters(seed):
     assert np.mean(np.abs(np.diff(np.log10(g[order]))) < 0.06) > 0.99
 
 
+def test_work_order_refuses_what_it_would_write_or_read_past():
+    a = np.full(5, 1.5)
+    with pytest.raises(ValueError, match="out must be an int32 array of shape"):
+        kc.work_order(a, a, a, a, out=np.zeros(3, np.int32))
+    with pytest.raises(ValueError, match="out must be an int32"):
+        kc.work_order(a, a, a, a, out=np.zeros(5, np.int64))
+    with pytest.raises(ValueError, match=r"lengths \[5, 5, 5, 4\]"):
+        kc.work_order(a, a[:4], a, a)
+
+
 def test_work_order_of_no_and_of_equal_points():
     assert kc.work_order(*(np.empty(0),) * 4).size == 0
     same = np.full(5, 1.5)

@@ -176,11 +176,26 @@ def work_order(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: n
     -------
     ndarray of int32
         A permutation of ``range(len(alpha))``.
+
+    Raises
+    ------
+    ValueError
+        Arrays of unequal lengths, 2^31 points or more, or an ``out`` that is not a 1-d
+        int32 array of their length (the sort writes unchecked).
     """
-    params = tuple(np.ascontiguousarray(x, dtype=np.float64)
+    params = tuple(np.ascontiguousarray(x, dtype=np.float64).reshape(-1)
                    for x in (gamma, gtilde, alpha, beta))
-    order = np.empty(params[0].size, dtype=np.int32) if out is None else out
-    if params[0].size:
+    n = params[0].size
+    if any(x.size != n for x in params) or n >= 2 ** 31:
+        raise ValueError(f"work_order needs four arrays of one length below 2**31, got "
+                         f"lengths (gamma, g~, alpha, beta) {[x.size for x in params]}")
+    order = np.empty(n, dtype=np.int32) if out is None else out
+    if not (isinstance(order, np.ndarray) and order.dtype == np.int32
+            and order.shape == (n,)):
+        raise ValueError(f"work_order's out must be an int32 array of shape ({n},), got "
+                         f"{getattr(order, 'dtype', type(order).__name__)} "
+                         f"{getattr(order, 'shape', '')}")
+    if n:
         _sorted_by_buckets(params, tuple(x.view(np.int64) for x in params),
                            np.array(ORDER_BUCKETS, dtype=np.int64), order)
     return order
