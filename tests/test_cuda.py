@@ -149,7 +149,7 @@ def test_work_order_refuses_what_it_would_write_or_read_past():
         kc.work_order(a, a, a, a, out=np.zeros(3, np.int32))
     with pytest.raises(ValueError, match="out must be an int32"):
         kc.work_order(a, a, a, a, out=np.zeros(5, np.int64))
-    with pytest.raises(ValueError, match=r"lengths \[5, 5, 5, 4\]"):
+    with pytest.raises(ValueError, match=r"beta\) \[5, 5, 5, 4\]"):
         kc.work_order(a, a[:4], a, a)
 
 
