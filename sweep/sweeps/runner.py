@@ -480,8 +480,10 @@ class WorkerMismatch(RuntimeError):
 
 @functools.lru_cache(maxsize=1)
 def _loaded_source():
-    """:func:`source_sha256` of this process, taken once: what a long-lived worker
-    imported, whatever was installed since."""
+    """:func:`source_sha256` of this process, taken once, at its first chunk: a worker
+    imports the sweep's modules then (unpickling the task), so a sweep installed after
+    that is seen as another one. A worker that imported them earlier by another route
+    and had the package replaced before its first chunk is not caught."""
     return source_sha256()
 
 
