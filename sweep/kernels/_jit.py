@@ -41,7 +41,8 @@ from numba.core import event as _event
 from numba.core.registry import CPUDispatcher
 
 __all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "package_imports",
-           "jit", "cached_jit", "FLAGS", "COMPILE_GC_THRESHOLDS", "INLINE_IR_SOURCES"]
+           "jit", "cached_jit", "FLAGS", "COMPILE_GC_THRESHOLDS", "INLINE_IR_SOURCES",
+           "INLINE_IR_NUMBA"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 _PACKAGE = _PACKAGE_DIR.name
@@ -281,6 +282,9 @@ _event.register("numba:compile", _COLLECTOR)
 #: 0.68.1's) whose copies :func:`_share_inline_copies` shares a memo in; any other is left
 #: as it is (the compile is then slower, never different).
 INLINE_IR_SOURCES = frozenset({"26fd2b7600c9d929"})
+#: numba releases whose IR nodes copy themselves as that sharing assumes (``ir.Var``
+#: records itself in the memo; ``Const`` and ``FreeVar`` share their location).
+INLINE_IR_NUMBA = frozenset({"0.68.1"})
 
 
 class _OneMemo:
@@ -307,10 +311,12 @@ def _share_inline_copies() -> bool:
     of the callee and of all that was inlined into it: each block's copy copied the whole
     scope, blocks times variables (a rhs of 79 blocks and 456 variables: 1.3 s). With one
     memo the scope is copied once, as a single deepcopy of the IR would; the generated code
-    is the same (``_kernel``'s LLVM IR and machine code byte for byte). The first
-    ``sweep.cor()`` took 1.4-2.3 s less CPU (15.9-18.9 s against 17.4-21.2 s, interleaved).
-    Applied to the source hashed in :data:`INLINE_IR_SOURCES` only: that the two copies
-    start from different objects, as there, is what lets them share the memo.
+    is the same (the CPU ``_kernel``'s LLVM IR and machine code byte for byte). numba's
+    inlining passes over the first ``sweep.cor()`` took 3.1-4.9 s against 5.6-7.0 s
+    (summed, nested; docs/speed/history.md). Applied to the source hashed in
+    :data:`INLINE_IR_SOURCES` of the releases in :data:`INLINE_IR_NUMBA` only: that the
+    two copies start from different objects, as there, is what lets them share the memo.
+    numba-cuda compiles with its own copy of the inliner, which this leaves alone.
     """
     from numba.core import inline_closurecall as icc    # noqa: PLC0415 -- numba internals
 
@@ -320,18 +326,19 @@ def _share_inline_copies() -> bool:
         source = inspect.getsource(plain)
     except (TypeError, OSError):
         return False
-    if hashlib.sha256(source.encode()).hexdigest()[:16] not in INLINE_IR_SOURCES \
-            or getattr(icc, "copy", None) is not copy:
+    known = (hashlib.sha256(source.encode()).hexdigest()[:16] in INLINE_IR_SOURCES
+             and numba.__version__ in INLINE_IR_NUMBA)
+    if not known or getattr(icc, "copy", None) is not copy:
         return False
 
     @functools.wraps(plain)
     def inline_ir(self, *args, **kwargs):
         if _COLLECTOR.depth == 0:       # another package's compile: numba's own way
             return plain(self, *args, **kwargs)
-        icc.copy = _OneMemo()
+        previous, icc.copy = icc.copy, _OneMemo()
         try:
             return plain(self, *args, **kwargs)
         finally:
-            icc.copy = copy
+            icc.copy = previous
     worker.inline_ir = inline_ir
     return True
