@@ -1017,3 +1017,21 @@ def test_sigterm_exits_143_keeping_the_finished_chunks(tmp_path, monkeypatch, ca
     assert capsys.readouterr().err == "sweep: terminated\n"
     assert len(list((tmp_path / "out.nc.partial").glob("chunk_*.npz"))) == 2
     assert signal.getsignal(signal.SIGTERM) is not cli._terminate   # restored
+
+
+def test_the_memory_a_chunk_may_take_is_the_containers_where_that_is_lower(tmp_path,
+                                                                           monkeypatch):
+    """A container on a large host sees the host's RAM in sysconf; its cgroup limit is what
+    the OOM killer enforces."""
+    from sweep.sweeps import preflight
+
+    host = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    v2, v1 = tmp_path / "memory.max", tmp_path / "limit_in_bytes"
+    monkeypatch.setattr(preflight, "CGROUP_MEMORY_LIMITS", (str(v2), str(v1)))
+    assert preflight.physical_memory() == host                  # neither file: the host's
+    v1.write_text("2147483648\n")
+    assert preflight.physical_memory() == min(host, 2 ** 31)    # cgroup v1
+    v2.write_text("max\n")
+    assert preflight.physical_memory() == host                  # v2 says: no limit
+    v2.write_text("1073741824\n")
+    assert preflight.physical_memory() == min(host, 2 ** 30)

@@ -230,12 +230,28 @@ def preflight(layout: store.Layout, variables: Sequence[str], chunk_size: int,
                      directory=None if output is None else Path(output).absolute().parent)
 
 
+#: Where a Linux container's memory limit is read (cgroup v2, then v1) [bytes].
+CGROUP_MEMORY_LIMITS = ("/sys/fs/cgroup/memory.max",
+                        "/sys/fs/cgroup/memory/memory.limit_in_bytes")
+
+
 def physical_memory() -> int | None:
-    """This machine's physical memory [bytes], or None where the system does not say."""
+    """The memory this process may use [bytes]: the machine's physical memory, or its
+    container's limit where that is lower (a container on a large host sees the host's
+    RAM); None where the system says neither."""
     try:
-        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        memory = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (AttributeError, OSError, ValueError):  # pragma: no cover - e.g. Windows
-        return None
+        memory = None
+    for path in CGROUP_MEMORY_LIMITS:
+        try:
+            text = Path(path).read_text(encoding="ascii").strip()
+        except (OSError, UnicodeDecodeError):
+            continue
+        if text.isdigit():      # "max" (v2) or a huge number (v1): no limit
+            memory = int(text) if memory is None else min(memory, int(text))
+        break
+    return memory
 
 
 def _sample(design: Any, n: int) -> tuple:
