@@ -294,7 +294,7 @@ def _digest(arrays):
 def _chunk_problem(meta, data, expect):
     """Why a chunk file read back does not hold what is expected, or None if it does."""
     if meta.get("format") != CHUNK_FORMAT:
-        return "unknown format"
+        return f"of format {str(meta.get('format'))[:40]}, not {CHUNK_FORMAT}"
     if (meta.get("identity"), meta.get("config_sha256")) != (expect["identity"],
                                                              expect["config_sha256"]):
         return "from another run"
@@ -428,8 +428,8 @@ class PartialStore:
                     f"cannot resume {self.output}: the partial results in {self.dir} "
                     f"were computed with a different {what} ({key}: "
                     f"{_short(old.get(key))} there, {_short(self.manifest.get(key))} now). "
-                    "Rerun with the original configuration, or with --restart to discard "
-                    "them.")
+                    "Rerun with the configuration and the sweep that wrote them, or with "
+                    "--restart to discard them.")
 
     def release(self) -> None:
         """Release the lock if :meth:`open` took it (idempotent); the saved chunks stay."""
