@@ -17,9 +17,8 @@ threads take apart, and the work of a point follows its parameters (damping, loa
 exponents). Each chunk is therefore integrated in an order that puts points of similar
 parameters side by side (:func:`work_order`, a counting sort on coarse log buckets, on the
 host while the other stream computes); the kernel reads and writes each point at its own
-index, so the order changes no result. On one H200, 4,000,000 KK points of the core draw
-at ``tol=1e-8``: 5.9-6.6 million points/s in the draw's order, 17.0 million sorted
-beforehand by gamma and g~ (docs/speed/gpu.md).
+index, so the order changes no result (measured in docs/speed/gpu.md: 2.6 times the
+points/s on 4,000,000 KK points when the order costs nothing).
 
 **Agreement with the CPU.** The arithmetic is the same; the results are not bit-identical,
 for two reasons that no option of numba-cuda removes: NVVM contracts ``a * b + c`` into
@@ -29,17 +28,15 @@ allow contraction too, :data:`sweep.kernels._jit.FLAGS`), and CUDA's libdevice
 division are correctly rounded on both). Both change e by a few ulp on ordinary points;
 where the integrator amplifies rounding (near the stick/rebound boundary, by about 1/e)
 the difference stays within ``e_err``, and a point whose indicator sits right at the
-refinement target may be refined on one device and not the other. Measured on one H200
-(``python benchmarks/gpu.py``, docs/speed/gpu.md): on 4,000 random points of every law e
-agrees to 1e-12 everywhere (at most 3.6e-14; 95% bit-identical); on the 581 hard cases
-96-97% agree to 1e-12 and the rest, grazing points with e ~ 1e-6 .. 1e-4, by up to 2.6e-10,
-within their ``e_err`` (1e-9 .. 3e-8); statuses and step counts are equal on every point.
+refinement target may be refined on one device and not the other. How far apart the two
+are on hardware, point by point, is measured in docs/speed/gpu.md (``python
+benchmarks/gpu.py``'s agreement lines).
 
 Without a GPU, ``NUMBA_ENABLE_CUDASIM=1`` runs the same kernel in numba's CUDA simulator
 (slowly; the tests use it).
 
-Owns: the CUDA kernel, the device check, chunked transfers. May import: integrator,
-stepper, registry, _jit (numba-cuda only when called).
+Owns: the CUDA kernel, the device check, chunked transfers, the work order. May import:
+integrator, stepper, registry, _jit (numba-cuda only when called).
 """
 from __future__ import annotations
 
@@ -58,15 +55,13 @@ from sweep.registry import kernel_fields
 __all__ = ["device_error", "integrate_arrays_cuda", "solve_one", "ptx", "work_order",
            "CHUNK", "THREADS_PER_BLOCK", "ORDER_BUCKETS"]
 
-#: Points per chunk at most (73 bytes of device memory a point, twice for two streams). Small
-#: enough that the host's part of a chunk (its work order, the pinned copies) overlaps the
-#: other stream's kernel: on one H200, 16M KK points at tol=1e-8 ran at 16.5, 19.0 and 24.6
-#: million points/s in chunks of 2^22, 2^20 and 2^19 (docs/speed/gpu.md).
+#: Points per chunk at most (:data:`_BYTES_PER_POINT` of device memory a point, twice for
+#: two streams). Small enough that the host's part of a chunk (its work order, the pinned
+#: copies) overlaps the other stream's kernel (chunk sizes measured in docs/speed/gpu.md).
 CHUNK = 1 << 19
-#: Threads per block. The solve takes 248 registers a thread on an H200 (255 at most on any
-#: device, so 256 threads always fit a block's 64K registers); there 256 ran fastest of 32
-#: to 256: 9.1 against 8.9 million points/s at 128 (KK, tol=1e-8, in work order), general
-#: exponents 8.1 against 6.9 (docs/speed/gpu.md).
+#: Threads per block. The solve takes about 250 registers a thread (255 at most on any
+#: device, so 256 threads always fit a block's 64K registers). On an H200, 256 against 128
+#: ran general exponents 17% faster and KK within the noise (docs/speed/gpu.md).
 THREADS_PER_BLOCK = 256
 _BYTES_PER_POINT = 4 * 8 + 4 + sum(f.dtype.itemsize for f in kernel_fields())
 #: Buckets of gamma, g~, alpha and beta in :func:`work_order` (most for what moves the work
