@@ -102,7 +102,7 @@ def agreement(name, params, knob, machine):
     ec, eg = np.asarray(cpu.e), np.asarray(gpu.e)
     errc, errg = np.asarray(cpu.e_err), np.asarray(gpu.e_err)
     diff = np.abs(eg - ec)
-    same = (eg == ec) | (np.isnan(eg) & np.isnan(ec))
+    same = _same(ec, eg)
     worst = np.argsort(np.where(same, -1.0, np.nan_to_num(diff, nan=np.inf)))[::-1][:5]
     return {"agreement": name, "n": int(ec.size), **knob,
             "e_identical": float(np.mean(same)),
@@ -112,19 +112,19 @@ def agreement(name, params, knob, machine):
             "max_abs_diff": float(np.nanmax(np.where(same, 0.0, diff))),
             "status_equal": float(np.mean(np.asarray(cpu.status) == np.asarray(gpu.status))),
             "n_steps_equal": float(np.mean(np.asarray(cpu.n_steps) == np.asarray(gpu.n_steps))),
-            "all_fields_identical": float(np.mean(same & _rest_same(cpu, gpu))),
+            "all_fields_identical": float(np.mean(np.logical_and.reduce(
+                [same] + [_same(getattr(cpu, f), getattr(gpu, f))
+                          for f in ("t_f", "u_max", "n_steps", "status", "e_err")]))),
             "worst": [[float(x[i]) for x in (*params, ec, eg, errc, errg)]
                       + [int(cpu.status[i]), int(gpu.status[i])]
                       for i in worst if not same[i]],
             **machine}
 
 
-def _rest_same(cpu, gpu):
-    out = np.ones(np.asarray(cpu.e).shape, dtype=bool)
-    for f in ("t_f", "u_max", "n_steps", "status", "e_err"):
-        x, y = np.asarray(getattr(cpu, f)), np.asarray(getattr(gpu, f))
-        out &= (x == y) | (np.isnan(x) & np.isnan(y)) if x.dtype.kind == "f" else (x == y)
-    return out
+def _same(x, y):
+    """Point by point: equal, or NaN on both devices."""
+    x, y = np.asarray(x), np.asarray(y)
+    return (x == y) | (np.isnan(x) & np.isnan(y)) if x.dtype.kind == "f" else x == y
 
 
 def main(argv=None):
