@@ -794,10 +794,9 @@ def _preflight(job, force, limits):
         # Read attribute by attribute below: anything else was an AttributeError.
         raise TypeError(f"limits must be a sweep.sweeps.preflight.Limits, got "
                         f"{type(limits).__name__} {limits!r:.60}")
-    refusal = job.pre.refusal(limits or _preflight_mod.Limits())
-    if refusal is None and job.output is not None:  # in memory: the dataset's check first
-        refusal = job.pre.chunk_memory_refusal()
-    _refuse_unless_forced(job, refusal, force)
+    _refuse_unless_forced(job, job.pre.refusal(limits or _preflight_mod.Limits()), force)
+    if job.output is not None:      # in memory: the dataset's own check comes first
+        _refuse_unless_forced(job, job.pre.chunk_memory_refusal(), force)
     _check_device(job)
 
 
