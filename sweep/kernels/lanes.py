@@ -77,6 +77,7 @@ class Lanes(NamedTuple):
     h: np.ndarray       # float64: the step about to be taken
     y: np.ndarray       # float64 (LANES, 3): its (u_new, w_new, dr)
     K: np.ndarray       # float64 (LANES, N_STAGES, 3): each lane's stages
+    P: np.ndarray       # float64 (3, LANES): the stages' log and exps (rk_step_lanes)
 
 
 @intrinsic
@@ -104,7 +105,7 @@ def _borrowed(a):
 def _borrow(ln):
     b = _borrowed
     return Lanes(b(ln.point), b(ln.live), b(ln.LF), b(ln.LI), b(ln.CR), b(ln.SF), b(ln.SI),
-                 b(ln.u), b(ln.w), b(ln.h), b(ln.y), b(ln.K))
+                 b(ln.u), b(ln.w), b(ln.h), b(ln.y), b(ln.K), b(ln.P))
 
 
 @jit(inline="always")
@@ -118,7 +119,7 @@ def _lanes():
                  np.empty((LANES, LAW_COLUMNS[1]), np.int64),
                  np.empty((LANES, 7)), np.empty((LANES, 14)), np.empty((LANES, 6), np.int64),
                  np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((LANES, 3)),
-                 np.empty((LANES, N_STAGES, 3)))
+                 np.empty((LANES, N_STAGES, 3)), np.empty((3, LANES)))
 
 
 @jit(inline="always")
@@ -246,7 +247,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
                     _put_end(ends, ln.point[lane], out_of_budget(st, c))
                     ln.live[lane], idle = False, True
         if not idle:
-            rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y)
+            rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y, ln.P)
             for lane in range(LANES):  # the rest of march()'s step
                 if ln.live[lane]:
                     # ln.K[lane] is a view of a borrowed array: it costs no count.
