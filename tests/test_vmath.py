@@ -31,12 +31,12 @@ def _ones(x, f):
 
 
 @numba.njit
-def _rows(P, f):
+def _rows(P, f, mask=-1):
     for r in range(P.shape[0]):
         if f == 0:
-            vmath.log_row(P, r)
+            vmath.log_row(P, r, mask)
         else:
-            vmath.exp_row(P, r)
+            vmath.exp_row(P, r, mask)
 
 
 def _arguments(rng, n):
@@ -86,3 +86,15 @@ def test_libmvec_not_used_for_another_cpu_than_the_host():
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                          text=True, check=True).stdout.split()
     assert out == ["0", "True"]
+
+
+@pytest.mark.parametrize("column", [0, 5, 9])
+def test_a_mask_computes_the_vectors_that_hold_its_columns(column):
+    P = np.full((1, 11), 0.5)
+    _rows(P, 0, 1 << column)
+    step = vmath.WIDTH or 1
+    whole = 11 - 11 % step
+    first = column - column % step if column < whole else column
+    done = np.zeros(11, bool)
+    done[first:first + (step if column < whole else 1)] = True
+    assert np.array_equal(P[0], np.where(done, np.log(0.5), 0.5))

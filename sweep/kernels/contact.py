@@ -28,8 +28,8 @@ from sweep.registry import MODELS, PARAMETERS
 __all__ = ["Law", "make_law", "put_law", "law_at", "LAW_COLUMNS", "rhs_at", "power_kind", "ppow",
            "ppow_called", "rhs", "rhs_called", "velocity", "accel", "dissipated", "potential",
            "damping_rate", "equilibrium", "well_depth", "damping_ratio", "natural_frequency",
-           "umax_undamped", "elastic_frequency", "in_domain", "KIND_ONE", "general_at",
-           "general_arguments", "rhs_general"]
+           "umax_undamped", "elastic_frequency", "in_domain", "KIND_ONE", "general_exponents",
+           "general_at", "general_arguments", "rhs_general"]
 
 # Exponents of the report's models get a pow-free evaluation: pow() dominates the cost of a
 # stage, and sqrt is exact-rounded and several times cheaper.
@@ -230,6 +230,13 @@ def _general(kd, ka, smooth):
 def _general_arguments(alpha, beta, lu):
     """Arguments of the exps of the general branch, ``((beta - 1) log u, alpha log u)``."""
     return (beta - 1.0) * lu, alpha * lu
+
+
+@jit()
+def general_exponents(alpha, beta):
+    """The law of ``(alpha, beta)`` takes :func:`rhs`'s general branch (for u > 0)."""
+    return _general(power_kind(beta - 1.0), power_kind(alpha),
+                    _integer(alpha) and _integer(beta))
 
 
 @jit(inline="always")

@@ -43,7 +43,7 @@ from numba.core import types
 from numba.extending import intrinsic
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import LAW_COLUMNS, law_at, make_law, put_law
+from sweep.kernels.contact import LAW_COLUMNS, general_exponents, law_at, make_law, put_law
 from sweep.kernels.creep import Creep, creep_constants
 from sweep.kernels.march import (GOING, Ending, State, after_stages, out_of_budget, scratch,
                                  start)
@@ -183,22 +183,42 @@ def ending_at(E, j):
 # Called, not inlined (two call sites, once per point; inlined, each copied the start of
 # a march into the driver: seconds of compile).
 @jit()
-def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps):
-    """Idle lanes take the next entries of ``todo`` (their marches started as march()
-    starts them), while there are any; returns the next entry."""
+def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, order):
+    """Idle lanes take the next entries of ``todo`` in the ``order`` of
+    :func:`_general_first` (their marches started as march() starts them), while there are
+    any; returns the next position in ``order``."""
     for lane in range(LANES):
         if ln.live[lane] or nxt >= todo.size:
             continue
-        i = todo[nxt]
+        j = order[nxt]
+        i = todo[j]
         c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
-        st = start(c, policy(c, steps[nxt]), ln.K[lane])
+        st = start(c, policy(c, steps[j]), ln.K[lane])
         put_law(ln.LF, ln.LI, lane, c)
         _put_creep(ln, lane, creep_constants(c))
         _put_state(ln, lane, st)
-        ln.point[lane] = nxt
+        ln.point[lane] = j
         ln.live[lane] = True
         nxt += 1
     return nxt
+
+
+@jit(inline="always")
+def _general_first(alpha, beta, todo):
+    """The entries of ``todo``, those with general exponents first
+    (:func:`sweep.kernels.contact.general_exponents`), each kind in its order: a stage
+    computes the powers of general lanes by vectors of lanes
+    (:func:`sweep.kernels.stepper.rk_step_lanes`), each vector whole for one of them, so
+    general points spread among the others' lanes would cost about as many calls as
+    general lanes all through."""
+    order = np.empty(todo.size, np.int64)
+    m = 0
+    for general in (True, False):
+        for j in range(todo.size):
+            if general_exponents(alpha[todo[j]], beta[todo[j]]) == general:
+                order[m] = j
+                m += 1
+    return order
 
 
 @jit(inline="always")
@@ -235,7 +255,8 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     b = _borrowed
     ln, K2, Q = _borrow(own), b(K2_own), b(Q_own)
     budget, ends = b(budget), b(ends)     # the others are read once per point
-    nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps)
+    order = _general_first(alpha, beta, todo)
+    nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps, order)
     while _any(ln.live):
         idle = False
         for lane in range(LANES):      # the step's size, after march()'s budget test
@@ -261,6 +282,6 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
                         _put_end(ends, ln.point[lane], end)
                         ln.live[lane], idle = False, True
         if idle:
-            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps)
+            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, order)
     # The owners live until the borrowed views are done with.
     own.live[0] = K2_own[0, 0] == Q_own[0, 0]

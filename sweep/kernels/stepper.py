@@ -174,11 +174,12 @@ def _general_stage(i, K, LF, P, pending):
     """Stage ``i`` of the lanes whose bits are set in ``pending`` (general exponents, u > 0,
     their stage point in ``K[lane, i, :2]``): the log and two exps of all lanes each in
     one vector call (:mod:`sweep.kernels.vmath`; the other lanes take log 1), then their
-    forces, as :func:`sweep.kernels.contact.rhs` gives them."""
+    forces, as :func:`sweep.kernels.contact.rhs` gives them. A vector without a pending
+    lane is skipped: lanes of the report's models among general ones cost no calls."""
     n = P.shape[1]
     for lane in range(n):
         P[0, lane] = K[lane, i, 0] if pending >> lane & 1 else 1.0
-    log_row(P, 0)
+    log_row(P, 0, pending)
     for lane in range(n):
         # The other lanes' laws may be stale rows (an infinite exponent would make a NaN,
         # which libmvec takes the slow way).
@@ -186,8 +187,8 @@ def _general_stage(i, K, LF, P, pending):
             P[1, lane], P[2, lane] = general_arguments(LF, lane, P[0, lane])
         else:
             P[1, lane], P[2, lane] = 0.0, 0.0
-    exp_row(P, 1)
-    exp_row(P, 2)
+    exp_row(P, 1, pending)
+    exp_row(P, 2, pending)
     for lane in range(n):
         if pending >> lane & 1:
             K[lane, i, 0], K[lane, i, 1], K[lane, i, 2] = rhs_general(

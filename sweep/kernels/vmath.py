@@ -162,24 +162,32 @@ def exp1(x):
     return _exp_lane0(x)
 
 
+# Bits of a vector's columns in the mask of log_row and exp_row.
+_VECTOR_BITS = (1 << _STEP) - 1
+
+
 def _row_with(vector_at, scalar):
     """:func:`log_row` or :func:`exp_row` from their intrinsics."""
 
-    def row(P, r):
+    def row(P, r, mask):
         n = P.shape[1]
         whole = n - n % _STEP
         for k in range(0, whole, _STEP):
-            vector_at(P, r, k)
+            if mask >> k & _VECTOR_BITS:
+                vector_at(P, r, k)
         # A rest of fewer columns than a vector: the scalar form (the same bits).
         for k in range(whole, n):
-            P[r, k] = scalar(P[r, k])
+            if mask >> k & 1:
+                P[r, k] = scalar(P[r, k])
 
     return row
 
 
-#: ``P[r, :] = log(P[r, :])`` in place (``P``: C-contiguous 2-D float64), by vectors of
-#: :data:`WIDTH`. Arguments <= 0 or NaN cost a scalar call per vector inside libmvec:
-#: lanes that need no log hold 1.0.
+#: ``P[r, k] = log(P[r, k])`` in place for the columns ``k`` whose bit is set in ``mask``
+#: (an int; ``P``: C-contiguous 2-D float64, at most 63 columns), by vectors of
+#: :data:`WIDTH`: a vector holding one of them is computed whole, the others are left as
+#: they are. Arguments <= 0 or NaN cost a scalar call per vector inside libmvec: columns
+#: that need no log should hold 1.0.
 log_row = jit(inline="always")(_row_with(_log_at, _log_lane0))
-#: ``P[r, :] = exp(P[r, :])`` in place, as :func:`log_row`.
+#: ``P[r, k] = exp(P[r, k])`` in place for the columns of ``mask``, as :func:`log_row`.
 exp_row = jit(inline="always")(_row_with(_exp_at, _exp_lane0))
