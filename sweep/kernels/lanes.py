@@ -8,7 +8,8 @@ together: every stage is formed for all lanes before the next
 overlap, and everything else of a step -- its size, the damping cap, the events, the
 stopping rules -- is the one-point march's own code (:func:`sweep.kernels.march.first_guess`,
 :func:`sweep.kernels.march.after_stages`), run per lane. A lane whose march has ended takes
-the next point.
+the next point (those with general exponents first, whose stages take their powers by
+vectors of lanes: :func:`_general_first`).
 
 Per point the operations are exactly those of :func:`sweep.kernels.march.march`, in the same
 order: the Endings are bit-identical to it whatever the other lanes hold
