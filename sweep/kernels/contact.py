@@ -12,7 +12,7 @@ number (u-bar, xi, omega_n, u_M) again. A new contact law (another pair of expon
 another form of the damping force) changes this module and :mod:`sweep.registry` only.
 
 Owns: the right-hand side, velocity, acceleration, dissipated energy, damping rate, regime
-numbers, the jitted domain test. May import: :mod:`sweep.registry`.
+numbers, the jitted domain test. May import: :mod:`sweep.registry`, vmath.
 """
 from __future__ import annotations
 
@@ -22,12 +22,14 @@ from typing import NamedTuple
 import numpy as np
 
 from sweep.kernels._jit import jit
+from sweep.kernels.vmath import exp1, log1
 from sweep.registry import MODELS, PARAMETERS
 
 __all__ = ["Law", "make_law", "put_law", "law_at", "LAW_COLUMNS", "rhs_at", "power_kind", "ppow",
            "ppow_called", "rhs", "rhs_called", "velocity", "accel", "dissipated", "potential",
            "damping_rate", "equilibrium", "well_depth", "damping_ratio", "natural_frequency",
-           "umax_undamped", "elastic_frequency", "in_domain", "KIND_ONE"]
+           "umax_undamped", "elastic_frequency", "in_domain", "KIND_ONE", "general_exponents",
+           "general_at", "general_arguments", "rhs_general"]
 
 # Exponents of the report's models get a pow-free evaluation: pow() dominates the cost of a
 # stage, and sqrt is exact-rounded and several times cheaper.
@@ -217,6 +219,48 @@ def _forces(w, beta, gamma, gtilde, pd, pb, pa):
     return v, gtilde - pa, -gamma * pb * (gtilde - pa - gamma * beta * pd * v)
 
 
+@jit(inline="always")
+def _general(kd, ka, smooth):
+    """The law takes :func:`rhs`'s general branch (for u > 0): its powers are
+    ``exp(p log u)``."""
+    return kd == _KIND_GENERAL and ka == _KIND_GENERAL and not smooth
+
+
+@jit(inline="always")
+def _general_arguments(alpha, beta, lu):
+    """Arguments of the exps of the general branch, ``((beta - 1) log u, alpha log u)``."""
+    return (beta - 1.0) * lu, alpha * lu
+
+
+@jit()
+def general_exponents(alpha, beta):
+    """The law of ``(alpha, beta)`` takes :func:`rhs`'s general branch (for u > 0)."""
+    return _general(power_kind(beta - 1.0), power_kind(alpha),
+                    _integer(alpha) and _integer(beta))
+
+
+@jit(inline="always")
+def general_at(I, row):
+    """The law in ``row`` of ``I`` (:func:`put_law`) takes :func:`rhs`'s general branch
+    where u > 0: its stages need ``log u`` and two exps (:func:`rhs_general`)."""
+    return _general(I[row, 2], I[row, 0], I[row, 3] != 0)
+
+
+@jit(inline="always")
+def general_arguments(F, row, lu):
+    """The exps' arguments of the law in ``row`` of ``F`` from ``lu = log u``
+    (:func:`rhs`'s general branch)."""
+    return _general_arguments(F[row, 0], F[row, 1], lu)
+
+
+@jit(inline="always")
+def rhs_general(u, w, F, row, pd, pa):
+    """``rhs(u, w, law_at(F, I, row))`` for u > 0 and a law of :func:`general_at`, from the
+    exps of :func:`general_arguments` (``pd = u^(beta-1)``, ``pa = u^alpha``), value for
+    value: for drivers that compute the powers of several points at once."""
+    return _forces(w, F[row, 1], F[row, 2], F[row, 3], pd, u * pd, pa)
+
+
 def _rhs_with(power):
     """:func:`rhs` taking the coded powers with ``power`` (:func:`_power`, inlined or
     called)."""
@@ -242,12 +286,13 @@ def _rhs_with(power):
             pd = _polynomial(u, c.kd)
             pb = u * pd
             pa = pb if c.alpha == c.beta else _polynomial(u, c.ka)
-        elif c.kd == _KIND_GENERAL and c.ka == _KIND_GENERAL and u > 0.0:
-            # General exponents: one log for both powers (a pow is a log and an exp).
-            lu = math.log(u)
-            pd = math.exp((c.beta - 1.0) * lu)
+        elif _general(c.kd, c.ka, c.smooth) and u > 0.0:
+            # General exponents: one log for both powers (a pow is a log and an exp), by
+            # the vector functions that the lanes' stages call (sweep.kernels.vmath).
+            ad, aa = _general_arguments(c.alpha, c.beta, log1(u))
+            pd = exp1(ad)
             pb = u * pd
-            pa = math.exp(c.alpha * lu)
+            pa = exp1(aa)
         else:
             pd = power(u, c.beta - 1.0, c.kd)
             pb = u * pd if u > 0.0 else 0.0

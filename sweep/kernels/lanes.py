@@ -8,7 +8,8 @@ together: every stage is formed for all lanes before the next
 overlap, and everything else of a step -- its size, the damping cap, the events, the
 stopping rules -- is the one-point march's own code (:func:`sweep.kernels.march.first_guess`,
 :func:`sweep.kernels.march.after_stages`), run per lane. A lane whose march has ended takes
-the next point.
+the next point (those with general exponents first, whose stages take their powers by
+vectors of lanes: :func:`_general_first`).
 
 Per point the operations are exactly those of :func:`sweep.kernels.march.march`, in the same
 order: the Endings are bit-identical to it whatever the other lanes hold
@@ -43,7 +44,7 @@ from numba.core import types
 from numba.extending import intrinsic
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import LAW_COLUMNS, law_at, make_law, put_law
+from sweep.kernels.contact import LAW_COLUMNS, general_exponents, law_at, make_law, put_law
 from sweep.kernels.creep import Creep, creep_constants
 from sweep.kernels.march import (GOING, Ending, State, after_stages, out_of_budget, scratch,
                                  start)
@@ -77,6 +78,7 @@ class Lanes(NamedTuple):
     h: np.ndarray       # float64: the step about to be taken
     y: np.ndarray       # float64 (LANES, 3): its (u_new, w_new, dr)
     K: np.ndarray       # float64 (LANES, N_STAGES, 3): each lane's stages
+    P: np.ndarray       # float64 (3, LANES): the stages' log and exps (rk_step_lanes)
 
 
 @intrinsic
@@ -104,7 +106,7 @@ def _borrowed(a):
 def _borrow(ln):
     b = _borrowed
     return Lanes(b(ln.point), b(ln.live), b(ln.LF), b(ln.LI), b(ln.CR), b(ln.SF), b(ln.SI),
-                 b(ln.u), b(ln.w), b(ln.h), b(ln.y), b(ln.K))
+                 b(ln.u), b(ln.w), b(ln.h), b(ln.y), b(ln.K), b(ln.P))
 
 
 @jit(inline="always")
@@ -118,7 +120,7 @@ def _lanes():
                  np.empty((LANES, LAW_COLUMNS[1]), np.int64),
                  np.empty((LANES, 7)), np.empty((LANES, 14)), np.empty((LANES, 6), np.int64),
                  np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((LANES, 3)),
-                 np.empty((LANES, N_STAGES, 3)))
+                 np.empty((LANES, N_STAGES, 3)), np.empty((3, LANES)))
 
 
 @jit(inline="always")
@@ -182,22 +184,42 @@ def ending_at(E, j):
 # Called, not inlined (two call sites, once per point; inlined, each copied the start of
 # a march into the driver: seconds of compile).
 @jit()
-def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps):
-    """Idle lanes take the next entries of ``todo`` (their marches started as march()
-    starts them), while there are any; returns the next entry."""
+def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, order):
+    """Idle lanes take the next entries of ``todo`` in the ``order`` of
+    :func:`_general_first` (their marches started as march() starts them), while there are
+    any; returns the next position in ``order``."""
     for lane in range(LANES):
         if ln.live[lane] or nxt >= todo.size:
             continue
-        i = todo[nxt]
+        j = order[nxt]
+        i = todo[j]
         c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
-        st = start(c, policy(c, steps[nxt]), ln.K[lane])
+        st = start(c, policy(c, steps[j]), ln.K[lane])
         put_law(ln.LF, ln.LI, lane, c)
         _put_creep(ln, lane, creep_constants(c))
         _put_state(ln, lane, st)
-        ln.point[lane] = nxt
+        ln.point[lane] = j
         ln.live[lane] = True
         nxt += 1
     return nxt
+
+
+@jit(inline="always")
+def _general_first(alpha, beta, todo):
+    """The entries of ``todo``, those with general exponents first
+    (:func:`sweep.kernels.contact.general_exponents`), each kind in its order: a stage
+    computes the powers of general lanes by vectors of lanes
+    (:func:`sweep.kernels.stepper.rk_step_lanes`), each vector whole for one of them, so
+    general points spread among the others' lanes would cost about as many calls as
+    general lanes all through."""
+    order = np.empty(todo.size, np.int64)
+    m = 0
+    for general in (True, False):
+        for j in range(todo.size):
+            if general_exponents(alpha[todo[j]], beta[todo[j]]) == general:
+                order[m] = j
+                m += 1
+    return order
 
 
 @jit(inline="always")
@@ -234,7 +256,8 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     b = _borrowed
     ln, K2, Q = _borrow(own), b(K2_own), b(Q_own)
     budget, ends = b(budget), b(ends)     # the others are read once per point
-    nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps)
+    order = _general_first(alpha, beta, todo)
+    nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps, order)
     while _any(ln.live):
         idle = False
         for lane in range(LANES):      # the step's size, after march()'s budget test
@@ -246,7 +269,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
                     _put_end(ends, ln.point[lane], out_of_budget(st, c))
                     ln.live[lane], idle = False, True
         if not idle:
-            rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y)
+            rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y, ln.P)
             for lane in range(LANES):  # the rest of march()'s step
                 if ln.live[lane]:
                     # ln.K[lane] is a view of a borrowed array: it costs no count.
@@ -260,6 +283,6 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
                         _put_end(ends, ln.point[lane], end)
                         ln.live[lane], idle = False, True
         if idle:
-            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps)
+            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, order)
     # The owners live until the borrowed views are done with.
     own.live[0] = K2_own[0, 0] == Q_own[0, 0]

@@ -9,15 +9,17 @@ The stage loop is written once against the tableau arrays of :mod:`sweep.kernels
 contact law's (:mod:`sweep.kernels.contact`); step-size choice and event logic live
 elsewhere.
 
-Owns: the Runge-Kutta step and the dense output. May import: tableau, contact.
+Owns: the Runge-Kutta step and the dense output. May import: tableau, contact, vmath.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import rhs, rhs_at, rhs_called
+from sweep.kernels.contact import (general_arguments, general_at, rhs, rhs_at, rhs_called,
+                                   rhs_general)
 from sweep.kernels.tableau import DORMAND_PRINCE_54
+from sweep.kernels.vmath import exp_row, log_row
 
 __all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "rk_stage", "stage_point", "rk_combine",
            "local_error", "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
@@ -136,11 +138,12 @@ rk_step_inline = jit(inline="always")(_step_with(rhs))
 
 
 @jit(inline="always")
-def rk_step_lanes(u, w, h, K, LF, LI, live, y):
+def rk_step_lanes(u, w, h, K, LF, LI, live, y, P):
     """:func:`rk_step` for several points at once: lane ``l`` (where ``live[l]``) steps
     ``(u[l], w[l])`` by ``h[l]`` with the law in row ``l`` of ``LF, LI``
     (:func:`sweep.kernels.contact.rhs_at`), its stages in ``K[l]`` (``K[l, 0]`` = f at the
-    start on entry), its ``(u_new, w_new, dr)`` in ``y[l]``.
+    start on entry), its ``(u_new, w_new, dr)`` in ``y[l]``. ``P``: scratch, float64 (3,
+    lanes), C-contiguous.
 
     Each stage is formed for every lane before the next: the lanes' chains of dependent
     operations (each stage waits on the power of u of the one before) overlap, where one
@@ -148,14 +151,48 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y):
     the arithmetic is :func:`rk_step`'s, operation for operation.
     """
     for i in range(1, N_STAGES):
+        pending = 0
         for lane in range(live.size):
             if live[lane]:
                 ui, wi = _stage_point_lane(i, u[lane], w[lane], h[lane], K, lane)
-                K[lane, i, 0], K[lane, i, 1], K[lane, i, 2] = rhs_at(ui, wi, LF, LI, lane)
+                if ui > 0.0 and general_at(LI, lane):
+                    # Its log and exps come with the other lanes' (_general_stage).
+                    K[lane, i, 0], K[lane, i, 1] = ui, wi
+                    pending |= 1 << lane
+                else:
+                    K[lane, i, 0], K[lane, i, 1], K[lane, i, 2] = rhs_at(ui, wi, LF, LI, lane)
+        if pending:
+            _general_stage(i, K, LF, P, pending)
     for lane in range(live.size):
         if live[lane]:
             y[lane, 0], y[lane, 1], y[lane, 2] = _combine_lane(u[lane], w[lane], h[lane], K,
                                                                lane)
+
+
+@jit(inline="always")
+def _general_stage(i, K, LF, P, pending):
+    """Stage ``i`` of the lanes whose bits are set in ``pending`` (general exponents, u > 0,
+    their stage point in ``K[lane, i, :2]``): the log and two exps of all lanes each in
+    one vector call (:mod:`sweep.kernels.vmath`; the other lanes take log 1), then their
+    forces, as :func:`sweep.kernels.contact.rhs` gives them. A vector without a pending
+    lane is skipped: lanes of the report's models among general ones cost no calls."""
+    n = P.shape[1]
+    for lane in range(n):
+        P[0, lane] = K[lane, i, 0] if pending >> lane & 1 else 1.0
+    log_row(P, 0, pending)
+    for lane in range(n):
+        # The other lanes' laws may be stale rows (an infinite exponent would make a NaN,
+        # which libmvec takes the slow way).
+        if pending >> lane & 1:
+            P[1, lane], P[2, lane] = general_arguments(LF, lane, P[0, lane])
+        else:
+            P[1, lane], P[2, lane] = 0.0, 0.0
+    exp_row(P, 1, pending)
+    exp_row(P, 2, pending)
+    for lane in range(n):
+        if pending >> lane & 1:
+            K[lane, i, 0], K[lane, i, 1], K[lane, i, 2] = rhs_general(
+                K[lane, i, 0], K[lane, i, 1], LF, lane, P[1, lane], P[2, lane])
 
 
 @jit(inline="always")

@@ -1,0 +1,193 @@
+"""exp and log of several lanes in one call: glibc's vector math library (libmvec).
+
+The stages of general exponents take one log and two exps per lane (the powers of
+:func:`sweep.kernels.contact.rhs`); glibc's scalar calls cost about 14 ns for the three
+per lane, and numba here has no SVML to vectorise them. libmvec's vector functions
+compute :data:`WIDTH` of them in about the time of one scalar call.
+
+**The same bits for one lane and for many.** The one-point march evaluates its powers with
+:func:`log1` and :func:`exp1`, which put their argument in lane 0 of the same vector
+function that :func:`log_row` and :func:`exp_row` apply to the array kernels' lanes:
+vector math functions are elementwise, so a lane's result does not depend on what the
+other lanes hold (``tests/test_vmath.py``), and the two marches stay bit-identical.
+
+**Where libmvec is not used.** The variant is chosen once, at import: AVX2 (4 doubles),
+else AVX-512 (8), else SSE4 (2), the first that the host CPU has, on x86_64 with libmvec
+found (glibc 2.22 or later). Elsewhere -- another C library or machine, a CPU
+without SSE4.1, or numba told to compile for another CPU than the host
+(``NUMBA_CPU_NAME``/``NUMBA_CPU_FEATURES``: the vector registers a call passes through
+would not be known) -- :data:`WIDTH` is 0 and the same functions call ``math.log`` and
+``math.exp``; on the GPU they are always libdevice's. Results for general exponents then
+differ in the last bits from a machine that uses libmvec, or from another variant: glibc
+documents libmvec's double exp and log within 4 ulp of the exact value (its scalar exp
+and log within 1). Measured (AVX2 variant, 1e5 arguments over the march's ranges: u in
+[1e-300, 10], exponents in [0, 3]): log within 1 ulp of mpmath's correctly rounded value,
+exp within 3 (glibc's scalar calls: 1 and 1); they differ from the scalar calls' results
+for 21% of the logs and 31% of the exps. ``tests/test_vmath.py`` holds them to 4. The report's models and integer exponents take no
+exp or log in their stages: their results do not depend on this module.
+
+Owns: the vector exp and log and the choice of their variant. May import: nothing from
+``sweep`` but _jit.
+"""
+from __future__ import annotations
+
+import ctypes.util
+import math
+import platform
+
+import llvmlite.binding as llvm
+import numba
+from llvmlite import ir
+from numba.core import cgutils, types
+from numba.core.cpu import CPUContext
+from numba.extending import intrinsic
+
+from sweep.kernels._jit import jit
+
+__all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log_row", "exp_row"]
+
+# libmvec's variants, in order of preference: (CPU feature, name letter of the x86_64
+# vector ABI, doubles per vector). AVX2 before AVX-512: on the AMD EPYC (Zen 4) where it was
+# measured, which runs AVX-512 on 256-bit units, general exponents took 2-3% less time a
+# point with two 4-wide calls than with one 8-wide (2026-12-04, interleaved).
+_VARIANTS = (("avx2", "d", 4), ("avx512f", "e", 8), ("sse4.1", "b", 2))
+
+
+def _variant() -> tuple[str, int]:
+    """(name letter, width) of the libmvec variant to call, or ("", 0) for math's calls."""
+    if platform.machine().lower() not in ("x86_64", "amd64"):
+        return "", 0
+    if numba.config.CPU_NAME or numba.config.CPU_FEATURES:
+        return "", 0
+    path = ctypes.util.find_library("mvec")
+    if not path:
+        return "", 0
+    try:
+        llvm.load_library_permanently(path)
+    except RuntimeError:
+        return "", 0
+    features = llvm.get_host_cpu_features()
+    for feature, letter, width in _VARIANTS:
+        if features.get(feature) and all(llvm.address_of_symbol(_name(letter, width, f))
+                                         for f in ("exp", "log")):
+            return letter, width
+    return "", 0
+
+
+def _name(letter: str, width: int, function: str) -> str:
+    return f"_ZGV{letter}N{width}v_{function}"
+
+
+_LETTER, WIDTH = _variant()
+#: libmvec's symbol stem in use (e.g. ``_ZGVeN8v``), or "" where math's calls are used.
+VARIANT = _name(_LETTER, WIDTH, "")[:-1] if WIDTH else ""
+# Elements one call of _apply_at takes: a vector, or one scalar call.
+_STEP = WIDTH or 1
+
+
+def _vector_call(builder, function, vector):
+    """``function`` (``exp`` or ``log``) of the <WIDTH x double> ``vector``, by libmvec."""
+    vt = vector.type
+    fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vt, [vt]),
+                                        _name(_LETTER, WIDTH, function))
+    return builder.call(fn, [vector])
+
+
+def _scalar_call(context, builder, function, x):
+    """``math.<function>(x)`` as the target compiles it (the C library's, libdevice's)."""
+    sig = types.float64(types.float64)
+    return context.get_function(getattr(math, function), sig)(builder, [x])
+
+
+def _scalar_intrinsic(function):
+    """Intrinsic: ``function`` of a float64 in lane 0 of the vector call (the others 1.0)."""
+
+    @intrinsic
+    def of_lane0(typingctx, x):
+        sig = types.float64(types.float64)
+
+        def codegen(context, builder, signature, args):
+            if not WIDTH or not isinstance(context, CPUContext):
+                return _scalar_call(context, builder, function, args[0])
+            ones = ir.Constant(ir.VectorType(ir.DoubleType(), WIDTH), [1.0] * WIDTH)
+            lanes = builder.insert_element(ones, args[0], ir.Constant(ir.IntType(32), 0))
+            result = _vector_call(builder, function, lanes)
+            return builder.extract_element(result, ir.Constant(ir.IntType(32), 0))
+        return sig, codegen
+    return of_lane0
+
+
+def _row_intrinsic(function):
+    """Intrinsic: ``P[r, k:k + _STEP] = function(P[r, k:k + _STEP])`` in place, for a
+    C-contiguous float64 ``P`` with at least ``k + _STEP`` columns (unchecked)."""
+
+    @intrinsic
+    def at(typingctx, P, r, k):
+        if not (isinstance(P, types.Array) and P.ndim == 2 and P.layout == "C"
+                and P.dtype == types.float64):
+            raise numba.core.errors.TypingError(f"a C-contiguous 2-D float64 array is "
+                                                f"needed, got {P}")
+        sig = types.void(P, types.intp, types.intp)
+
+        def codegen(context, builder, signature, args):
+            arr = context.make_array(signature.args[0])(context, builder, args[0])
+            ptr = cgutils.get_item_pointer(context, builder, signature.args[0], arr,
+                                           [args[1], args[2]])
+            if not WIDTH or not isinstance(context, CPUContext):
+                builder.store(_scalar_call(context, builder, function, builder.load(ptr)),
+                              ptr)
+            else:
+                vptr = builder.bitcast(ptr, ir.VectorType(ir.DoubleType(), WIDTH)
+                                       .as_pointer())
+                vector = builder.load(vptr, align=8)
+                builder.store(_vector_call(builder, function, vector), vptr, align=8)
+            return context.get_dummy_value()
+        return sig, codegen
+    return at
+
+
+_log_lane0, _exp_lane0 = _scalar_intrinsic("log"), _scalar_intrinsic("exp")
+_log_at, _exp_at = _row_intrinsic("log"), _row_intrinsic("exp")
+
+
+@jit(inline="always")
+def log1(x):
+    """Natural log of a float64, bit for bit as :func:`log_row` gives it for an element."""
+    return _log_lane0(x)
+
+
+@jit(inline="always")
+def exp1(x):
+    """exp of a float64, bit for bit as :func:`exp_row` gives it for an element."""
+    return _exp_lane0(x)
+
+
+# Bits of a vector's columns in the mask of log_row and exp_row.
+_VECTOR_BITS = (1 << _STEP) - 1
+
+
+def _row_with(vector_at, scalar):
+    """:func:`log_row` or :func:`exp_row` from their intrinsics."""
+
+    def row(P, r, mask):
+        n = P.shape[1]
+        whole = n - n % _STEP
+        for k in range(0, whole, _STEP):
+            if mask >> k & _VECTOR_BITS:
+                vector_at(P, r, k)
+        # A rest of fewer columns than a vector: the scalar form (the same bits).
+        for k in range(whole, n):
+            if mask >> k & 1:
+                P[r, k] = scalar(P[r, k])
+
+    return row
+
+
+#: ``P[r, k] = log(P[r, k])`` in place for the columns ``k`` whose bit is set in ``mask``
+#: (an int; ``P``: C-contiguous 2-D float64, at most 63 columns), by vectors of
+#: :data:`WIDTH`: a vector holding one of them is computed whole, the others are left as
+#: they are. Arguments <= 0 or NaN cost a scalar call per vector inside libmvec: columns
+#: that need no log should hold 1.0.
+log_row = jit(inline="always")(_row_with(_log_at, _log_lane0))
+#: ``P[r, k] = exp(P[r, k])`` in place for the columns of ``mask``, as :func:`log_row`.
+exp_row = jit(inline="always")(_row_with(_exp_at, _exp_lane0))
