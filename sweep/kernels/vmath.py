@@ -44,7 +44,8 @@ from numba.extending import intrinsic
 
 from sweep.kernels._jit import jit
 
-__all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log_row", "exp_row"]
+__all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log_row", "exp_row", "exp4", "expm1_4",
+           "log1p_4", "HAS"]
 
 # libmvec's variants, in order of preference: (CPU feature, name letter of the x86_64
 # vector ABI, doubles per vector). AVX2 before AVX-512: on the AMD EPYC (Zen 4) where it was
@@ -83,6 +84,10 @@ _LETTER, WIDTH = _variant()
 VARIANT = _name(_LETTER, WIDTH, "")[:-1] if WIDTH else ""
 # Elements one call of _apply_at takes: a vector, or one scalar call.
 _STEP = WIDTH or 1
+#: The functions of this module that libmvec has in the variant in use (its expm1 and
+#: log1p came with glibc 2.35); the others are math's calls, element by element.
+HAS = frozenset(f for f in ("exp", "log", "expm1", "log1p")
+                if WIDTH and llvm.address_of_symbol(_name(_LETTER, WIDTH, f)))
 
 
 def _vector_call(builder, function, vector):
@@ -191,3 +196,47 @@ def _row_with(vector_at, scalar):
 log_row = jit(inline="always")(_row_with(_log_at, _log_lane0))
 #: ``P[r, k] = exp(P[r, k])`` in place for the columns of ``mask``, as :func:`log_row`.
 exp_row = jit(inline="always")(_row_with(_exp_at, _exp_lane0))
+
+
+# Elements of the tuples of exp4, expm1_4 and log1p_4.
+_TUPLE = 4
+
+
+def _tuple_intrinsic(function):
+    """Intrinsic: ``function`` of each element of a 4-tuple of float64, by as many vector
+    calls as :data:`WIDTH` needs (lanes past the tuple hold 1.0), or by math's calls where
+    the host's libmvec lacks ``function``. No array, so no reference count to update: the
+    closed forms call it at every quadrature node."""
+
+    @intrinsic
+    def of4(typingctx, t):
+        if not (isinstance(t, types.UniTuple) and t.count == _TUPLE
+                and t.dtype == types.float64):
+            raise numba.core.errors.TypingError(f"a 4-tuple of float64 is needed, got {t}")
+
+        def codegen(context, builder, signature, args):
+            values = cgutils.unpack_tuple(builder, args[0])
+            if function not in HAS or not isinstance(context, CPUContext):
+                out = [_scalar_call(context, builder, function, v) for v in values]
+            else:
+                out = []
+                for start in range(0, _TUPLE, WIDTH):
+                    lanes = ir.Constant(ir.VectorType(ir.DoubleType(), WIDTH), [1.0] * WIDTH)
+                    part = values[start:start + WIDTH]
+                    for k, v in enumerate(part):
+                        lanes = builder.insert_element(lanes, v, ir.Constant(ir.IntType(32), k))
+                    result = _vector_call(builder, function, lanes)
+                    out += [builder.extract_element(result, ir.Constant(ir.IntType(32), k))
+                            for k in range(len(part))]
+            return context.make_tuple(builder, signature.return_type, out)
+        return t(t), codegen
+    return of4
+
+
+#: ``(exp(x0), .., exp(x3))`` of a 4-tuple of float64, bit for bit as :func:`exp1` gives
+#: each (vector functions are elementwise).
+exp4 = _tuple_intrinsic("exp")
+#: ``expm1`` of each element of a 4-tuple of float64 (libmvec's where it has it).
+expm1_4 = _tuple_intrinsic("expm1")
+#: ``log1p`` of each element of a 4-tuple of float64 (libmvec's where it has it).
+log1p_4 = _tuple_intrinsic("log1p")
