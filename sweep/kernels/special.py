@@ -50,7 +50,7 @@ import math
 
 import numpy as np
 
-from sweep.kernels._jit import cached_jit
+from sweep.kernels._jit import cached_jit, jit
 from sweep.kernels.vmath import exp4, expm1_4
 from sweep.registry import CHEBYSHEV_N_MAX
 
@@ -458,6 +458,24 @@ def _chebyshev_coefficients(alpha, theta, n, logx, cosjk, cj):
         cj[jj] *= 4.0 / (n + 1)
 
 
+@jit(inline="always")
+def _clenshaw4(cj, half, z0, z1, z2, z3):
+    """``p_n = sum_{j even} c_j T_j(x - 1)`` at four nodes (``z = 2 (x - 1)^2 - 1``) by
+    Clenshaw's recurrence, the four side by side: one node's chain of dependent
+    multiply-adds is latency-bound, four fill the vector unit. Each node's operations are
+    those of the one-node recurrence, in its order."""
+    a0 = a1 = a2 = a3 = 0.0     # b_{j+1}
+    d0 = d1 = d2 = d3 = 0.0     # b_{j+2}
+    for jj in range(half - 1, 0, -1):
+        c = cj[jj]
+        a0, d0 = 2.0 * z0 * a0 - d0 + c, a0
+        a1, d1 = 2.0 * z1 * a1 - d1 + c, a1
+        a2, d2 = 2.0 * z2 * a2 - d2 + c, a2
+        a3, d3 = 2.0 * z3 * a3 - d3 + c, a3
+    c = cj[0]
+    return z0 * a0 - d0 + c, z1 * a1 - d1 + c, z2 * a2 - d2 + c, z3 * a3 - d3 + c
+
+
 @cached_jit()
 def _beta_moments(alpha, beta, theta, n, cj):
     """The sums (49) for ``M_{a,b}``, ``M_{a,b+1}``, ``M_{a,a+b+1}`` as the integrals (104)::
@@ -490,15 +508,10 @@ def _beta_moments(alpha, beta, theta, n, cj):
         xl = expm1_4((lam * _DE[1, c0], lam * _DE[1, c1], lam * _DE[1, c2],
                       lam * _DE[1, c3]))
         xa = exp4((ap1 * _DE[1, c0], ap1 * _DE[1, c1], ap1 * _DE[1, c2], ap1 * _DE[1, c3]))
+        ps = _clenshaw4(cj, half, _DE[2, c0], _DE[2, c1], _DE[2, c2], _DE[2, c3])
         for k in range(min(_BY, top + 1 - g)):
             i = mid + (g + k) * m
-            z = _DE[2, i]
-            b1 = 0.0
-            b2 = 0.0
-            for jj in range(half - 1, 0, -1):
-                b1, b2 = 2.0 * z * b1 - b2 + cj[jj], b1
-            p = z * b1 - b2 + cj[0]
-            f = _DE[3, i] * p * xs[k] / math.sqrt(-xl[k])
+            f = _DE[3, i] * ps[k] * xs[k] / math.sqrt(-xl[k])
             m0 += f
             m1 += f * _DE[0, i]
             m2 += f * xa[k]
