@@ -51,7 +51,7 @@ import math
 import numpy as np
 
 from sweep.kernels._jit import cached_jit, jit
-from sweep.kernels.vmath import exp4, expm1_4
+from sweep.kernels.vmath import exp4, expm1_4, sqrt_div4
 from sweep.registry import CHEBYSHEV_N_MAX
 
 __all__ = ["beta_fn", "log_abs_gamma", "gtilde_of_theta", "theta_of_gtilde", "jm_quadrature",
@@ -240,16 +240,18 @@ def _right_sums(alpha, beta, theta):
                       alpha * _DR[1, i3]))
         eb = exp4(((beta - 1.0) * _DR[1, i0], (beta - 1.0) * _DR[1, i1],
                    (beta - 1.0) * _DR[1, i2], (beta - 1.0) * _DR[1, i3]))
+        # r = theta + x (1 - x^a)/(1 - x) at the four nodes.
+        rs = (theta + (1.0 - _DR[0, i0]) * (-ex[0] / _DR[0, i0]),
+              theta + (1.0 - _DR[0, i1]) * (-ex[1] / _DR[0, i1]),
+              theta + (1.0 - _DR[0, i2]) * (-ex[2] / _DR[0, i2]),
+              theta + (1.0 - _DR[0, i3]) * (-ex[3] / _DR[0, i3]))
+        srs, ms = sqrt_div4(rs, (_WR[i0] * eb[0], _WR[i1] * eb[1], _WR[i2] * eb[2],
+                                 _WR[i3] * eb[3]))
         for k in range(min(_BY, _XR.size - g)):
             i = g + k
             s = _XR[i]
-            d = _DR[0, i]
-            q = -ex[k] / d                         # (1 - x^a)/(1 - x)
-            r = theta + (1.0 - d) * q
-            xb1 = eb[k]
-            sr = math.sqrt(r)
-            mr += _WR[i] * xb1 / sr
-            jr += _WR[i] * s * s * sr * xb1
+            mr += ms[k]
+            jr += _WR[i] * s * s * srs[k] * eb[k]
     return jr, mr
 
 
@@ -265,13 +267,15 @@ def _left_panel_sums(alpha, beta, theta, s0, width):
         xs = exp4(s)
         xa = exp4((alpha * s[0], alpha * s[1], alpha * s[2], alpha * s[3]))
         xbs = exp4((beta * s[0], beta * s[1], beta * s[2], beta * s[3]))
+        pv = (theta * (1.0 - xs[0]) + xs[0] * (1.0 - xa[0]),   # no cancellation
+              theta * (1.0 - xs[1]) + xs[1] * (1.0 - xa[1]),
+              theta * (1.0 - xs[2]) + xs[2] * (1.0 - xa[2]),
+              theta * (1.0 - xs[3]) + xs[3] * (1.0 - xa[3]))
+        sps, xb_sp = sqrt_div4(pv, (_WL[g] * xbs[0], _WL[g + 1] * xbs[1],
+                                    _WL[g + 2] * xbs[2], _WL[g + 3] * xbs[3]))
         for k in range(_BY):
-            x = xs[k]
-            pv = theta * (1.0 - x) + x * (1.0 - xa[k])   # no cancellation
-            xb = xbs[k]
-            sp = math.sqrt(pv)
-            mp += _WL[g + k] * xb / sp
-            jp += _WL[g + k] * xb * sp
+            mp += xb_sp[k]
+            jp += _WL[g + k] * xbs[k] * sps[k]
     return jp, mp
 
 
@@ -509,9 +513,12 @@ def _beta_moments(alpha, beta, theta, n, cj):
                       lam * _DE[1, c3]))
         xa = exp4((ap1 * _DE[1, c0], ap1 * _DE[1, c1], ap1 * _DE[1, c2], ap1 * _DE[1, c3]))
         ps = _clenshaw4(cj, half, _DE[2, c0], _DE[2, c1], _DE[2, c2], _DE[2, c3])
+        _, fs = sqrt_div4((-xl[0], -xl[1], -xl[2], -xl[3]),
+                          (_DE[3, c0] * ps[0] * xs[0], _DE[3, c1] * ps[1] * xs[1],
+                           _DE[3, c2] * ps[2] * xs[2], _DE[3, c3] * ps[3] * xs[3]))
         for k in range(min(_BY, top + 1 - g)):
             i = mid + (g + k) * m
-            f = _DE[3, i] * ps[k] * xs[k] / math.sqrt(-xl[k])
+            f = fs[k]
             m0 += f
             m1 += f * _DE[0, i]
             m2 += f * xa[k]

@@ -45,7 +45,7 @@ from numba.extending import intrinsic
 from sweep.kernels._jit import jit
 
 __all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log_row", "exp_row", "exp4", "expm1_4",
-           "log1p_4", "HAS"]
+           "log1p_4", "sqrt_div4", "HAS"]
 
 # libmvec's variants, in order of preference: (CPU feature, name letter of the x86_64
 # vector ABI, doubles per vector). AVX2 before AVX-512: on the AMD EPYC (Zen 4) where it was
@@ -240,3 +240,35 @@ exp4 = _tuple_intrinsic("exp")
 expm1_4 = _tuple_intrinsic("expm1")
 #: ``log1p`` of each element of a 4-tuple of float64 (libmvec's where it has it).
 log1p_4 = _tuple_intrinsic("log1p")
+
+
+@intrinsic
+def sqrt_div4(typingctx, x, y):
+    """``(sqrt(x_k), y_k / sqrt(x_k))`` of two 4-tuples of float64, as 4-wide vector
+    operations: IEEE square root and division are correctly rounded, so each element has the
+    bits of the scalar ``math.sqrt`` and ``/``; the quadrature nodes' sqrt and division,
+    one at a time, were throughput-bound (scalar vsqrtsd, vdivsd)."""
+    for t in (x, y):
+        if not (isinstance(t, types.UniTuple) and t.count == _TUPLE
+                and t.dtype == types.float64):
+            raise numba.core.errors.TypingError(f"4-tuples of float64 are needed, got {t}")
+
+    def codegen(context, builder, signature, args):
+        vt = ir.VectorType(ir.DoubleType(), _TUPLE)
+        xv, yv = (_pack(builder, vt, cgutils.unpack_tuple(builder, a)) for a in args)
+        sqrt = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vt, [vt]),
+                                              f"llvm.sqrt.v{_TUPLE}f64")
+        root = builder.call(sqrt, [xv])
+        ratio = builder.fdiv(yv, root)
+        out = [context.make_tuple(builder, x, [builder.extract_element(
+            v, ir.Constant(ir.IntType(32), k)) for k in range(_TUPLE)]) for v in (root, ratio)]
+        return context.make_tuple(builder, signature.return_type, out)
+    return types.Tuple((x, x))(x, y), codegen
+
+
+def _pack(builder, vt, values):
+    """An LLVM vector of the scalars ``values``."""
+    v = ir.Constant(vt, ir.Undefined)
+    for k, e in enumerate(values):
+        v = builder.insert_element(v, e, ir.Constant(ir.IntType(32), k))
+    return v
