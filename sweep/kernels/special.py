@@ -331,7 +331,10 @@ def jm_quadrature(alpha, beta, theta):
       panels of length 2.5 in s with 16 nodes reach ~1e-16.
     - [0, h0] with ``h0 = 1e-3 min(theta, 1/2)``: a convergent series (``_tail_series``).
 
-    Cost: 62 nodes at theta >= 1/2, growing like ``6.4 log(1/theta)`` (~190 at 1e-9).
+    Cost: 62 nodes at theta >= 1/2, growing like ``6.4 log(1/theta)`` (~190 at 1e-9). The
+    nodes' exps go to libmvec four at a time (:mod:`sweep.kernels.vmath`, within 4 ulp);
+    on [h0, 1/2] the powers of x are products of a panel's and a node's exps
+    (:func:`_left_sums`). About 0.5 us a point on the Sobol design (2026-12-04, Zen 4).
 
     Parameters
     ----------

@@ -26,7 +26,14 @@ exp within 3 (glibc's scalar calls: 1 and 1); they differ from the scalar calls'
 for 21% of the logs and 31% of the exps. ``tests/test_vmath.py`` holds them to 4. The report's models and integer exponents take no
 exp or log in their stages: their results do not depend on this module.
 
-Owns: the vector exp and log and the choice of their variant. May import: nothing from
+**The closed forms' quadratures** (:mod:`sweep.kernels.special`) take the exps of their
+nodes four at a time as tuples (:func:`exp4`, :func:`expm1_4`; :func:`log1p_4` too), no
+array in between, and the nodes' square roots and divisions four at a time
+(:func:`sqrt_div4`, IEEE vector operations, the bits of the scalar ones). libmvec's expm1
+and log1p came with glibc 2.35: :data:`HAS` says which functions it has here, and a
+function it lacks is math's call element by element.
+
+Owns: the vector exp, log, expm1, log1p and the choice of their variant. May import: nothing from
 ``sweep`` but _jit.
 """
 from __future__ import annotations
@@ -99,7 +106,8 @@ def _vector_call(builder, function, vector):
 
 
 def _scalar_call(context, builder, function, x):
-    """``math.<function>(x)`` as the target compiles it (the C library's, libdevice's)."""
+    """``math.<function>(x)`` as the target compiles it (the C library's, libdevice's,
+    LLVM's sqrt)."""
     sig = types.float64(types.float64)
     return context.get_function(getattr(math, function), sig)(builder, [x])
 
@@ -254,6 +262,15 @@ def sqrt_div4(typingctx, x, y):
             raise numba.core.errors.TypingError(f"4-tuples of float64 are needed, got {t}")
 
     def codegen(context, builder, signature, args):
+        if not isinstance(context, CPUContext):
+            # The GPU (the undamped duration's quadrature is in its kernel): scalar forms.
+            roots = [_scalar_call(context, builder, "sqrt", v)
+                     for v in cgutils.unpack_tuple(builder, args[0])]
+            ratios = [builder.fdiv(v, r)
+                      for v, r in zip(cgutils.unpack_tuple(builder, args[1]), roots)]
+            return context.make_tuple(builder, signature.return_type,
+                                      [context.make_tuple(builder, x, roots),
+                                       context.make_tuple(builder, x, ratios)])
         vt = ir.VectorType(ir.DoubleType(), _TUPLE)
         xv, yv = (_pack(builder, vt, cgutils.unpack_tuple(builder, a)) for a in args)
         sqrt = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vt, [vt]),
