@@ -50,7 +50,7 @@ import math
 
 import numpy as np
 
-from sweep.kernels._jit import cached_jit
+from sweep.kernels._jit import cached_jit, jit
 from sweep.registry import CHEBYSHEV_N_MAX
 
 __all__ = ["beta_fn", "log_abs_gamma", "gtilde_of_theta", "theta_of_gtilde", "jm_quadrature",
@@ -187,7 +187,7 @@ _XL, _WL = _gauss_legendre_01(16)
 _XR, _WR = _gauss_legendre_01(14)
 
 
-@cached_jit()
+@jit()
 def _tail_series(p, alpha, beta, theta, h0):
     """``int_0^h0 x^(b-1) P(x)^p dx`` for ``h0 <= 1e-3 min(theta, 1/2)``.
 
@@ -291,7 +291,7 @@ def jm_quadrature(alpha, beta, theta):
     return jr + jl + jt, mr + ml + mt
 
 
-@cached_jit()
+@jit()
 def _k_l(alpha, beta, theta):
     """``K(theta)`` and ``L(theta)`` of (47)."""
     umb = (0.5 * (alpha + 1.0) / theta) ** (beta / (alpha + 1.0))   # u_M^b
@@ -356,7 +356,7 @@ def _tanh_sinh_table():
 _DE = _tanh_sinh_table()
 
 
-@cached_jit()
+@jit()
 def _de_stride(n):
     """Stride through ``_DE`` for order n: step ``min(0.1, 4/(n+19))``; 0 beyond N_MAX."""
     return min(_DE_STRIDE_MAX, (_DE_RULE * _DE_PER_UNIT) // (n + 19))
@@ -386,7 +386,7 @@ def chebyshev_tables(n):
     return logx, cosjk
 
 
-@cached_jit()
+@jit()
 def _chebyshev_coefficients(alpha, theta, n, logx, cosjk, cj):
     """``c_j`` of (50) for even ``j < n`` into ``cj[j/2]``, from ``h`` (51) at the nodes (52).
 
@@ -408,7 +408,7 @@ def _chebyshev_coefficients(alpha, theta, n, logx, cosjk, cj):
         cj[jj] *= 4.0 / (n + 1)
 
 
-@cached_jit()
+@jit()
 def _beta_moments(alpha, beta, theta, n, cj):
     """The sums (49) for ``M_{a,b}``, ``M_{a,b+1}``, ``M_{a,a+b+1}`` as the integrals (104)::
 
