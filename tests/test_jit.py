@@ -173,7 +173,7 @@ def test_a_failed_compile_restores_the_thresholds(thresholds):
     assert gc.get_threshold() == before
 
 
-def test_a_called_helper_serves_kernels_and_refuses_python():
+def test_a_called_helper_serves_kernels_and_python_through_a_twin():
     def plus_one(x):
         return x + 1.0
 
@@ -183,9 +183,13 @@ def test_a_called_helper_serves_kernels_and_refuses_python():
     helper = _jit.jit()(plus_one)
     entry = _jit.jit(entry=True)(twice)
     assert entry(1.5) == 5.0
-    # Compiled without a Python wrapper: a call from Python must be refused, not crash.
-    with pytest.raises(TypeError, match="plus_one is compiled for kernels only"):
-        helper(1.5)
+    (own,) = helper.overloads.values()
+    # Compiled without a Python wrapper: a call from Python runs a twin, not a null pointer.
+    assert helper(1.5) == 2.5 and helper(0.5) == 1.5
+    twin = helper._python_twin
+    assert twin is not helper and twin.py_func is plus_one
+    assert {k: twin.targetoptions.get(k) for k in _jit.FLAGS} == _jit.FLAGS
+    assert list(helper.overloads.values()) == [own]
     inlined = _jit.jit(inline="always")(plus_one)
     assert inlined(1.5) == 2.5
 

@@ -176,20 +176,21 @@ FLAGS = {"error_model": "numpy", "nogil": True, "fastmath": {"contract"}}
 def jit(entry: bool = False, **options):
     """``numba.njit`` with the package's :data:`FLAGS` (for helpers compiled into kernels).
 
-    Compile time: every dispatcher a kernel calls costs 0.1-0.3 s of its own (its machine
-    code, which includes all it calls again), and every ``inline="always"`` call site costs
-    the callee's front end again and deep copies of its IR, everything inlined into it
-    included (numba's copies grow with its blocks times its variables; with
-    :func:`_share_inline_copies`, with their sum): at each level of a nest of inlined
-    helpers the whole subtree is copied once more. So what runs per step is inlined, in as
-    few levels as will do; what runs once per point or event, or at a step only where a
-    cheap test says it may, is compiled once and called (``benchmarks/run_all.py --only
-    startup_compile_fresh``).
+    Compile time: every dispatcher a kernel calls costs 0.1-0.3 s of its own (its optimised
+    IR, which includes all it calls again), and every ``inline="always"`` call site costs
+    the callee's front end again (numba builds its IR anew for each call site): at each
+    level of a nest of inlined helpers the whole subtree is built once more. So what runs
+    per step is inlined, in as few levels as will do; what runs once per point or event, or
+    at a step only where a cheap test says it may, is compiled once and called
+    (``benchmarks/run_all.py --only startup_compile_fresh``).
 
-    A called helper gets no Python or C wrapper (only kernels call it: building the
-    wrappers that unbox its named-tuple arguments cost about 0.5 s of the first calls); one
-    that Python calls too (a test, a diagnostic) says ``entry=True``. Inlined helpers keep
-    theirs, which costs nothing until Python calls them.
+    A called helper gets no Python or C wrapper and no machine code of its own (only
+    kernels run it, from their own copies: building the wrappers that unbox its named-tuple
+    arguments cost about 0.5 s of the first calls, emitting the helpers' code 0.4-0.8 s;
+    :func:`_leave_helpers_unemitted`). Called from Python (a test, a diagnostic), it
+    compiles a twin with wrappers on the first such call; one that Python calls as a matter
+    of course says ``entry=True``. Inlined helpers keep their wrappers, which cost nothing
+    until Python calls them.
     """
     if entry or options.get("inline") == "always":
         return numba.njit(**FLAGS, **options)
@@ -198,19 +199,27 @@ def jit(entry: bool = False, **options):
         dispatcher = numba.njit(no_cpython_wrapper=True, no_cfunc_wrapper=True, **FLAGS,
                                 **options)(fn)
         # Called from Python, a dispatcher without its wrapper would jump into nothing (a
-        # segmentation fault): this class refuses the call instead.
+        # segmentation fault): this class calls a twin with wrappers instead.
         dispatcher.__class__ = _KernelOnly
         return dispatcher
     return wrap
 
 
+#: Options of a kernel-only helper that its Python twin drops (``nopython``: njit's own).
+_WRAPPERLESS = ("no_cpython_wrapper", "no_cfunc_wrapper", "nopython")
+
+
 class _KernelOnly(CPUDispatcher):
-    """A helper compiled without a Python wrapper: compiled code calls it, Python may not."""
+    """A helper compiled for kernels only (no wrappers, no machine code of its own).
+    Called from Python, it runs a twin compiled from the same function with the same
+    options and its wrappers, made on the first such call."""
 
     def __call__(self, *args, **kwargs):
-        raise TypeError(f"{self.py_func.__module__}.{self.py_func.__qualname__} is compiled "
-                        "for kernels only (no Python wrapper); jit(entry=True) makes it "
-                        "callable from Python")
+        twin = self.__dict__.get("_python_twin")
+        if twin is None:
+            options = {k: v for k, v in self.targetoptions.items() if k not in _WRAPPERLESS}
+            twin = self._python_twin = numba.njit(**options)(self.py_func)
+        return twin(*args, **kwargs)
 
 
 def cached_jit(**options):
