@@ -15,9 +15,12 @@ kernels. The user's own setting is restored right after.
 While numba compiles one of the package's kernels, Python's cyclic garbage collector runs
 with relaxed thresholds (:data:`COMPILE_GC_THRESHOLDS`, through numba's public
 ``numba:compile`` event): a compile allocates millions of objects, and the collections they
-triggered took a tenth of the first compile. Meanwhile numba's inliner copies each inlined
-callee with one memo for all its blocks (:func:`_share_inline_copies`): block by block, it
-copied the callee's whole scope once per block.
+triggered took a tenth of the first compile. Meanwhile numba's inliner splices in the IR it
+built for the call site without copying it (:func:`_skip_fresh_copies`) and copies other
+callees with one memo for all their blocks (:func:`_share_inline_copies`), and a helper
+that only kernels call gets no machine code of its own (:func:`_leave_helpers_unemitted`).
+Each of these patches of numba's internals applies to the numba release and sources it was
+written for only (:data:`PATCHED_NUMBA`).
 
 Owns: the kernel cache location and the compile-time settings. May import: nothing from
 ``sweep``.
