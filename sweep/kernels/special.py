@@ -50,7 +50,7 @@ import math
 
 import numpy as np
 
-from sweep.kernels._jit import cached_jit
+from sweep.kernels._jit import jit
 from sweep.registry import CHEBYSHEV_N_MAX
 
 __all__ = ["beta_fn", "log_abs_gamma", "gtilde_of_theta", "theta_of_gtilde", "jm_quadrature",
@@ -62,7 +62,7 @@ __all__ = ["beta_fn", "log_abs_gamma", "gtilde_of_theta", "theta_of_gtilde", "jm
 THETA_MIN = 1e-300
 
 
-@cached_jit()
+@jit()
 def beta_fn(x, y):
     """Euler's Beta function ``B(x, y) = Gamma(x) Gamma(y) / Gamma(x + y)`` for x, y > 0.
 
@@ -80,7 +80,7 @@ _STIRLING = (1.0 / 12.0, -1.0 / 360.0, 1.0 / 1260.0, -1.0 / 1680.0, 1.0 / 1188.0
 _STIRLING_FROM = 10.0
 
 
-@cached_jit()
+@jit()
 def log_abs_gamma(x, y):
     """``ln |Gamma(x + i y)|`` for x > 0, in real arithmetic.
 
@@ -105,7 +105,7 @@ def log_abs_gamma(x, y):
 # The map (43) between g~ and theta
 # ----------------------------------------------------------------------------------------
 
-@cached_jit()
+@jit()
 def gtilde_of_theta(alpha, theta):
     """Load ``g~(theta) = ((a+1)/(2 theta))^(-1/(a+1)) (1/(2 theta) - 1/2)``, eq. (43).
 
@@ -115,7 +115,7 @@ def gtilde_of_theta(alpha, theta):
     return (ap1 / (2.0 * theta)) ** (-1.0 / ap1) * (1.0 - theta) / (2.0 * theta)
 
 
-@cached_jit()
+@jit()
 def theta_of_gtilde(alpha, gtilde):
     """Inverse of (43): the ``theta`` in (0, 1] with ``g~(theta) = g~`` (``theta(0) = 1``).
 
@@ -187,7 +187,7 @@ _XL, _WL = _gauss_legendre_01(16)
 _XR, _WR = _gauss_legendre_01(14)
 
 
-@cached_jit()
+@jit()
 def _tail_series(p, alpha, beta, theta, h0):
     """``int_0^h0 x^(b-1) P(x)^p dx`` for ``h0 <= 1e-3 min(theta, 1/2)``.
 
@@ -211,7 +211,7 @@ def _tail_series(p, alpha, beta, theta, h0):
     return theta ** p * h0 ** beta * (s1 - p * eps * s2)
 
 
-@cached_jit()
+@jit()
 def jm_quadrature(alpha, beta, theta):
     """``J(theta)`` and ``M(theta)`` of (47) by composite Gauss-Legendre quadrature.
 
@@ -291,7 +291,7 @@ def jm_quadrature(alpha, beta, theta):
     return jr + jl + jt, mr + ml + mt
 
 
-@cached_jit()
+@jit()
 def _k_l(alpha, beta, theta):
     """``K(theta)`` and ``L(theta)`` of (47)."""
     umb = (0.5 * (alpha + 1.0) / theta) ** (beta / (alpha + 1.0))   # u_M^b
@@ -299,7 +299,7 @@ def _k_l(alpha, beta, theta):
     return 2.0 * umb / st, umb * st
 
 
-@cached_jit()
+@jit()
 def iq_quadrature(alpha, beta, gtilde):
     """``I(g~)`` and ``Q(g~)`` of Prop. 2 by quadrature (:func:`jm_quadrature`)::
 
@@ -356,13 +356,13 @@ def _tanh_sinh_table():
 _DE = _tanh_sinh_table()
 
 
-@cached_jit()
+@jit()
 def _de_stride(n):
     """Stride through ``_DE`` for order n: step ``min(0.1, 4/(n+19))``; 0 beyond N_MAX."""
     return min(_DE_STRIDE_MAX, (_DE_RULE * _DE_PER_UNIT) // (n + 19))
 
 
-@cached_jit()
+@jit()
 def chebyshev_tables(n):
     """Tables of (50)-(52) that depend on the order n only (n odd).
 
@@ -386,7 +386,7 @@ def chebyshev_tables(n):
     return logx, cosjk
 
 
-@cached_jit()
+@jit()
 def _chebyshev_coefficients(alpha, theta, n, logx, cosjk, cj):
     """``c_j`` of (50) for even ``j < n`` into ``cj[j/2]``, from ``h`` (51) at the nodes (52).
 
@@ -408,7 +408,7 @@ def _chebyshev_coefficients(alpha, theta, n, logx, cosjk, cj):
         cj[jj] *= 4.0 / (n + 1)
 
 
-@cached_jit()
+@jit()
 def _beta_moments(alpha, beta, theta, n, cj):
     """The sums (49) for ``M_{a,b}``, ``M_{a,b+1}``, ``M_{a,a+b+1}`` as the integrals (104)::
 
@@ -449,7 +449,7 @@ def _beta_moments(alpha, beta, theta, n, cj):
     return h * m0, h * m1, h * m2
 
 
-@cached_jit()
+@jit()
 def jm_chebyshev(alpha, beta, theta, n, logx, cosjk, work):
     """``J(theta)``, ``M(theta)`` by the report's Chebyshev-Beta approximation.
 
@@ -494,7 +494,7 @@ def jm_chebyshev(alpha, beta, theta, n, logx, cosjk, work):
     return j_b, m_b
 
 
-@cached_jit()
+@jit()
 def iq_chebyshev(alpha, beta, gtilde, n, logx, cosjk, work):
     """``I(g~) = K J``, ``Q(g~) = L M`` (47) with J, M from :func:`jm_chebyshev`.
 
@@ -512,7 +512,7 @@ def iq_chebyshev(alpha, beta, gtilde, n, logx, cosjk, work):
 # Closed forms
 # ----------------------------------------------------------------------------------------
 
-@cached_jit()
+@jit()
 def iq_at_zero(alpha, beta):
     """Exact ``I(0)`` (39) and ``Q(0)`` (40)::
 
@@ -526,7 +526,7 @@ def iq_at_zero(alpha, beta):
     return f * ap1 / (ap1 + 2.0 * beta), 0.5 * f
 
 
-@cached_jit()
+@jit()
 def first_order_constants(alpha, beta):
     """``C0`` and ``C1`` of the first-order, small-g~ approximation (22)::
 
@@ -541,7 +541,7 @@ def first_order_constants(alpha, beta):
     return c0, c1
 
 
-@cached_jit()
+@jit()
 def large_gtilde_constants(alpha, beta):
     """``C`` and the exponent ``r`` of the large-g~ approximation (23)::
 
