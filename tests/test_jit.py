@@ -173,7 +173,7 @@ def test_a_failed_compile_restores_the_thresholds(thresholds):
     assert gc.get_threshold() == before
 
 
-def test_a_called_helper_serves_kernels_and_refuses_python():
+def test_a_called_helper_serves_kernels_and_python_through_a_twin():
     def plus_one(x):
         return x + 1.0
 
@@ -183,9 +183,13 @@ def test_a_called_helper_serves_kernels_and_refuses_python():
     helper = _jit.jit()(plus_one)
     entry = _jit.jit(entry=True)(twice)
     assert entry(1.5) == 5.0
-    # Compiled without a Python wrapper: a call from Python must be refused, not crash.
-    with pytest.raises(TypeError, match="plus_one is compiled for kernels only"):
-        helper(1.5)
+    (own,) = helper.overloads.values()
+    # Compiled without a Python wrapper: a call from Python runs a twin, not a null pointer.
+    assert helper(1.5) == 2.5 and helper(0.5) == 1.5
+    twin = helper._python_twin
+    assert twin is not helper and twin.py_func is plus_one
+    assert {k: twin.targetoptions.get(k) for k in _jit.FLAGS} == _jit.FLAGS
+    assert list(helper.overloads.values()) == [own]
     inlined = _jit.jit(inline="always")(plus_one)
     assert inlined(1.5) == 2.5
 
@@ -221,3 +225,98 @@ def test_the_inliner_copies_a_package_callee_with_one_memo(monkeypatch):
     assert seen == [1, 1]
     assert _as_if_in("elsewhere", kernel)(3.0, 1.0) == 14.0
     assert seen[2] > 1 and seen[3] > 1
+
+
+def test_the_inliner_splices_a_package_callee_s_fresh_ir_uncopied(monkeypatch):
+    """While a package kernel compiles, an ``inline="always"`` callee's IR, built by
+    numba's front end for that one call site, is spliced in without numba's two deep
+    copies (``_jit._skip_fresh_copies``); other code's compiles copy it."""
+    from numba.core import inline_closurecall as icc
+
+    if not (_jit._share_inline_copies() and _jit._skip_fresh_copies()):
+        pytest.skip("numba's inliner is not one INLINE_*_SOURCES knows")
+    built, validated = [], []
+    run_untyped = icc.InlineWorker.run_untyped_passes
+    check = icc.callee_ir_validator
+
+    def built_spy(self, func, *args, **kwargs):
+        ir = run_untyped(self, func, *args, **kwargs)
+        built.append({id(b) for b in ir.blocks.values()})
+        return ir
+
+    def validated_spy(callee_ir):     # numba validates the working copy
+        validated.append({id(b) for b in callee_ir.blocks.values()})
+        check(callee_ir)
+    monkeypatch.setattr(icc.InlineWorker, "run_untyped_passes", built_spy)
+    monkeypatch.setattr(icc, "callee_ir_validator", validated_spy)
+
+    def halved(x):
+        return 0.5 * x if x > 0.0 else 0.0
+
+    def kernel(a, b):
+        return halved(a) + halved(b)
+
+    halved = numba.njit(inline="always")(halved)
+    assert _as_if_in("sweep.kernels.fake", kernel)(4.0, -1.0) == 2.0
+    assert len(built) == 2 and validated == built
+    assert _as_if_in("elsewhere", kernel)(2.0, 6.0) == 4.0
+    assert len(built) == 4 and not validated[2] & built[2] and not validated[3] & built[3]
+
+
+def test_a_called_helper_is_compiled_without_machine_code_of_its_own():
+    """A called helper compiled under a package kernel leaves its optimised IR for its
+    callers and puts nothing in the JIT engine (``_jit._leave_helpers_unemitted``)."""
+    if not _jit._leave_helpers_unemitted():
+        pytest.skip("numba's codegen is not one EXECUTABLE_SOURCES knows")
+
+    def cube(x):
+        return x * x * x
+
+    def kernel(x):
+        return helper(x) + 1.0
+
+    helper = _jit.jit()(cube)
+    assert _as_if_in("sweep.kernels.fake", kernel)(2.0) == 9.0
+    (cres,) = helper.overloads.values()
+    engine = cres.library.codegen._engine
+    assert cres.library._finalized and "cube" in cres.library.get_llvm_str()
+    assert not engine.is_symbol_defined(cres.fndesc.llvm_func_name)
+    # Other code's dispatchers are emitted as numba does.
+    entry = numba.njit(lambda x: x * 2.0)
+    entry(1.0)
+    (plain,) = entry.overloads.values()
+    assert engine.is_symbol_defined(plain.fndesc.llvm_func_name)
+
+
+@pytest.mark.parametrize("release", ["0.68.0", "0.69.0"])
+def test_the_numba_patches_keep_out_of_other_releases(release):
+    """Each patch of numba's internals applies to the sources and release it was written
+    for, and to no other: on another release the class is left as it was."""
+    from numba.core import cpu
+    from numba.core import inline_closurecall as icc
+
+    def unwrapped(fn):
+        return getattr(fn, "__wrapped__", fn)
+
+    worker = type("Worker", (), {"inline_function":
+                                 unwrapped(icc.InlineWorker.inline_function)})
+    context = type("Context", (), {"get_executable":
+                                   unwrapped(cpu.CPUContext.get_executable)})
+    assert not _jit._mark_fresh_callees(worker, release)
+    assert not _jit._unemitted_helpers_in(context, release)
+    assert "__wrapped__" not in vars(worker)["inline_function"].__dict__
+    assert "__wrapped__" not in vars(context)["get_executable"].__dict__
+    if numba.__version__ in _jit.PATCHED_NUMBA:
+        assert _jit._mark_fresh_callees(worker, numba.__version__)
+        assert _jit._unemitted_helpers_in(context, numba.__version__)
+        assert vars(worker)["inline_function"].__wrapped__ is unwrapped(
+            icc.InlineWorker.inline_function)
+
+
+def test_a_patch_keeps_out_of_other_sources():
+    def get_executable(self, library, fndesc, env):
+        return None
+
+    context = type("Context", (), {"get_executable": get_executable})
+    assert not _jit._unemitted_helpers_in(context, numba.__version__)
+    assert vars(context)["get_executable"] is get_executable

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import sweep
+from sweep.kernels._jit import jit
 from sweep.kernels.integrator import DEFAULT_MAX_STEPS, DEFAULT_REST_TOL
 from sweep.kernels.lanes import LANES, N_ENDING, march_lanes
 from sweep.kernels.march import march_point
@@ -45,9 +46,15 @@ def _one_point(a, b, g, gt, steps, budget):
     return np.array([e.kind, e.t, e.u, e.v, e.h, e.u_max, e.n, e.lw, e.lq])
 
 
+@jit(entry=True)
+def _march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, ends):
+    # march_lanes is compiled for kernels only: Python reaches it through this caller.
+    march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, DEFAULT_REST_TOL, E_TOL, ends)
+
+
 def _lanes(alpha, beta, gamma, gtilde, todo, steps, budget):
     ends = np.empty((todo.size, N_ENDING))
-    march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, DEFAULT_REST_TOL, E_TOL, ends)
+    _march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, ends)
     return ends
 
 

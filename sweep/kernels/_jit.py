@@ -15,9 +15,12 @@ kernels. The user's own setting is restored right after.
 While numba compiles one of the package's kernels, Python's cyclic garbage collector runs
 with relaxed thresholds (:data:`COMPILE_GC_THRESHOLDS`, through numba's public
 ``numba:compile`` event): a compile allocates millions of objects, and the collections they
-triggered took a tenth of the first compile. Meanwhile numba's inliner copies each inlined
-callee with one memo for all its blocks (:func:`_share_inline_copies`): block by block, it
-copied the callee's whole scope once per block.
+triggered took a tenth of the first compile. Meanwhile numba's inliner splices in the IR it
+built for the call site without copying it (:func:`_skip_fresh_copies`) and copies other
+callees with one memo for all their blocks (:func:`_share_inline_copies`), and a helper
+that only kernels call gets no machine code of its own (:func:`_leave_helpers_unemitted`).
+Each of these patches of numba's internals applies to the numba release and sources it was
+written for only (:data:`PATCHED_NUMBA`).
 
 Owns: the kernel cache location and the compile-time settings. May import: nothing from
 ``sweep``.
@@ -41,8 +44,8 @@ from numba.core import event as _event
 from numba.core.registry import CPUDispatcher
 
 __all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "package_imports",
-           "jit", "cached_jit", "FLAGS", "COMPILE_GC_THRESHOLDS", "INLINE_IR_SOURCES",
-           "INLINE_IR_NUMBA"]
+           "jit", "cached_jit", "FLAGS", "COMPILE_GC_THRESHOLDS", "PATCHED_NUMBA",
+           "INLINE_IR_SOURCES", "INLINE_FUNCTION_SOURCES", "EXECUTABLE_SOURCES"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 _PACKAGE = _PACKAGE_DIR.name
@@ -176,20 +179,21 @@ FLAGS = {"error_model": "numpy", "nogil": True, "fastmath": {"contract"}}
 def jit(entry: bool = False, **options):
     """``numba.njit`` with the package's :data:`FLAGS` (for helpers compiled into kernels).
 
-    Compile time: every dispatcher a kernel calls costs 0.1-0.3 s of its own (its machine
-    code, which includes all it calls again), and every ``inline="always"`` call site costs
-    the callee's front end again and deep copies of its IR, everything inlined into it
-    included (numba's copies grow with its blocks times its variables; with
-    :func:`_share_inline_copies`, with their sum): at each level of a nest of inlined
-    helpers the whole subtree is copied once more. So what runs per step is inlined, in as
-    few levels as will do; what runs once per point or event, or at a step only where a
-    cheap test says it may, is compiled once and called (``benchmarks/run_all.py --only
-    startup_compile_fresh``).
+    Compile time: every dispatcher a kernel calls costs 0.1-0.3 s of its own (its optimised
+    IR, which includes all it calls again), and every ``inline="always"`` call site costs
+    the callee's front end again (numba builds its IR anew for each call site): at each
+    level of a nest of inlined helpers the whole subtree is built once more. So what runs
+    per step is inlined, in as few levels as will do; what runs once per point or event, or
+    at a step only where a cheap test says it may, is compiled once and called
+    (``benchmarks/run_all.py --only startup_compile_fresh``).
 
-    A called helper gets no Python or C wrapper (only kernels call it: building the
-    wrappers that unbox its named-tuple arguments cost about 0.5 s of the first calls); one
-    that Python calls too (a test, a diagnostic) says ``entry=True``. Inlined helpers keep
-    theirs, which costs nothing until Python calls them.
+    A called helper gets no Python or C wrapper and no machine code of its own (only
+    kernels run it, from their own copies: building the wrappers that unbox its named-tuple
+    arguments cost about 0.5 s of the first calls, emitting the helpers' code 0.4-0.8 s;
+    :func:`_leave_helpers_unemitted`). Called from Python (a test, a diagnostic), it
+    compiles a twin with wrappers on the first such call; one that Python calls as a matter
+    of course says ``entry=True``. Inlined helpers keep their wrappers, which cost nothing
+    until Python calls them.
     """
     if entry or options.get("inline") == "always":
         return numba.njit(**FLAGS, **options)
@@ -198,19 +202,27 @@ def jit(entry: bool = False, **options):
         dispatcher = numba.njit(no_cpython_wrapper=True, no_cfunc_wrapper=True, **FLAGS,
                                 **options)(fn)
         # Called from Python, a dispatcher without its wrapper would jump into nothing (a
-        # segmentation fault): this class refuses the call instead.
+        # segmentation fault): this class calls a twin with wrappers instead.
         dispatcher.__class__ = _KernelOnly
         return dispatcher
     return wrap
 
 
+#: Options of a kernel-only helper that its Python twin drops (``nopython``: njit's own).
+_WRAPPERLESS = ("no_cpython_wrapper", "no_cfunc_wrapper", "nopython")
+
+
 class _KernelOnly(CPUDispatcher):
-    """A helper compiled without a Python wrapper: compiled code calls it, Python may not."""
+    """A helper compiled for kernels only (no wrappers, no machine code of its own).
+    Called from Python, it runs a twin compiled from the same function with the same
+    options and its wrappers, made on the first such call."""
 
     def __call__(self, *args, **kwargs):
-        raise TypeError(f"{self.py_func.__module__}.{self.py_func.__qualname__} is compiled "
-                        "for kernels only (no Python wrapper); jit(entry=True) makes it "
-                        "callable from Python")
+        twin = self.__dict__.get("_python_twin")
+        if twin is None:
+            options = {k: v for k, v in self.targetoptions.items() if k not in _WRAPPERLESS}
+            twin = self._python_twin = numba.njit(**options)(self.py_func)
+        return twin(*args, **kwargs)
 
 
 def cached_jit(**options):
@@ -238,34 +250,40 @@ class _RelaxedCollector(_event.Listener):
     """Sets :data:`COMPILE_GC_THRESHOLDS` from the start of the outermost compile of one of
     this package's dispatchers (the callees it compiles are nested in it) to its end,
     failed or not, then restores the thresholds found. Other code's compiles are left as
-    they are."""
+    they are. Meanwhile it knows which dispatcher's compile is innermost
+    (:attr:`compiling`), and the first such compile applies :func:`_patch_numba`."""
 
     def __init__(self):
         self._lock = threading.Lock()
-        self._depth = 0
+        self._nest = []
         self._saved = None
 
     @property
     def depth(self) -> int:
         """Nesting of the package's compiles now running (0: none)."""
-        return self._depth
+        return len(self._nest)
+
+    @property
+    def compiling(self):
+        """The dispatcher whose compile is innermost within the package's (None: none)."""
+        return self._nest[-1] if self._nest else None
 
     def on_start(self, event):
         with self._lock:
-            if self._depth == 0:
+            if not self._nest:
                 if not _ours(event.data):
                     return
-                _share_inline_copies()
+                _patch_numba()
                 self._saved = gc.get_threshold()
                 gc.set_threshold(*COMPILE_GC_THRESHOLDS)
-            self._depth += 1
+            self._nest.append(event.data.get("dispatcher"))
 
     def on_end(self, event):
         with self._lock:
-            if self._depth == 0:
+            if not self._nest:
                 return
-            self._depth -= 1
-            if self._depth == 0:
+            self._nest.pop()
+            if not self._nest:
                 gc.set_threshold(*self._saved)
 
 
@@ -278,13 +296,46 @@ def _ours(data) -> bool:
 _COLLECTOR = _RelaxedCollector()
 _event.register("numba:compile", _COLLECTOR)
 
+#: numba releases whose internals the patches of :func:`_patch_numba` were written for
+#: (with the sources hashed below: IR nodes that copy themselves as the inliner's patches
+#: assume, ``ir.Var`` recording itself in the memo, ``Const`` and ``FreeVar`` sharing
+#: their location; a code library finalized as the unemitted one assumes).
+PATCHED_NUMBA = frozenset({"0.68.1"})
 #: Sources of numba's ``InlineWorker.inline_ir`` (sha256, first 16 hex digits: numba
 #: 0.68.1's) whose copies :func:`_share_inline_copies` shares a memo in; any other is left
 #: as it is (the compile is then slower, never different).
 INLINE_IR_SOURCES = frozenset({"26fd2b7600c9d929"})
-#: numba releases whose IR nodes copy themselves as that sharing assumes (``ir.Var``
-#: records itself in the memo; ``Const`` and ``FreeVar`` share their location).
-INLINE_IR_NUMBA = frozenset({"0.68.1"})
+#: Sources of ``InlineWorker.inline_function`` (numba 0.68.1's) that hand ``inline_ir``
+#: IR built for the one call site, which :func:`_skip_fresh_copies` then leaves uncopied.
+INLINE_FUNCTION_SOURCES = frozenset({"1b53f183258e659d"})
+#: Sources of ``CPUContext.get_executable``, ``CPUCodeLibrary.finalize`` and
+#: ``CPUCodeLibrary._finalize_final_module`` (numba 0.68.1's) that
+#: :func:`_leave_helpers_unemitted` replaces for called helpers.
+EXECUTABLE_SOURCES = frozenset({"3892c8a654a2ca69", "4b4c34b83488a72f", "95bbf4fcbb90ed99"})
+
+
+def _known(functions, sources, version) -> bool:
+    """Whether numba ``version`` is one of :data:`PATCHED_NUMBA` and every function's
+    source hashes (sha256, first 16 hex digits) to one of ``sources``."""
+    if version not in PATCHED_NUMBA:
+        return False
+    for fn in functions:
+        try:
+            source = inspect.getsource(fn)
+        except (TypeError, OSError):
+            return False
+        if hashlib.sha256(source.encode()).hexdigest()[:16] not in sources:
+            return False
+    return True
+
+
+def _patch_numba() -> None:
+    """Apply the compile-time patches of numba's internals (each once, each only for the
+    sources it was written for): the package's compiles then take less time and give the
+    same machine code (the CPU kernels' LLVM IR and assembly byte for byte)."""
+    _share_inline_copies()
+    _skip_fresh_copies()
+    _leave_helpers_unemitted()
 
 
 class _OneMemo:
@@ -296,6 +347,18 @@ class _OneMemo:
 
     def deepcopy(self, x, memo=None):
         return copy.deepcopy(x, self._memo if memo is None else memo)
+
+    def __getattr__(self, name):
+        return getattr(copy, name)
+
+
+class _NoCopy:
+    """The ``copy`` module as numba's inliner sees it while it inlines a callee whose IR
+    was built for that one call site: ``deepcopy`` gives back what it is given."""
+
+    @staticmethod
+    def deepcopy(x, memo=None):
+        return x
 
     def __getattr__(self, name):
         return getattr(copy, name)
@@ -314,31 +377,130 @@ def _share_inline_copies() -> bool:
     is the same (the CPU ``_kernel``'s LLVM IR and machine code byte for byte). numba's
     inlining passes over the first ``sweep.cor()`` took 3.1-4.9 s against 5.6-7.0 s
     (summed, nested; docs/speed/history.md). Applied to the source hashed in
-    :data:`INLINE_IR_SOURCES` of the releases in :data:`INLINE_IR_NUMBA` only: that the
+    :data:`INLINE_IR_SOURCES` of the releases in :data:`PATCHED_NUMBA` only: that the
     two copies start from different objects, as there, is what lets them share the memo.
-    numba-cuda compiles with its own copy of the inliner, which this leaves alone.
+    numba-cuda compiles with its own copy of the inliner, which this leaves alone. Where
+    :func:`_skip_fresh_copies` marks the worker, there are no copies at all.
     """
     from numba.core import inline_closurecall as icc    # noqa: PLC0415 -- numba internals
 
     worker = getattr(icc, "InlineWorker", None)
     plain = getattr(worker, "inline_ir", None)
-    try:
-        source = inspect.getsource(plain)
-    except (TypeError, OSError):
-        return False
-    known = (hashlib.sha256(source.encode()).hexdigest()[:16] in INLINE_IR_SOURCES
-             and numba.__version__ in INLINE_IR_NUMBA)
-    if not known or getattr(icc, "copy", None) is not copy:
+    if (not _known([plain], INLINE_IR_SOURCES, numba.__version__)
+            or getattr(icc, "copy", None) is not copy):
         return False
 
     @functools.wraps(plain)
     def inline_ir(self, *args, **kwargs):
         if _COLLECTOR.depth == 0:       # another package's compile: numba's own way
             return plain(self, *args, **kwargs)
-        previous, icc.copy = icc.copy, _OneMemo()
+        fresh = getattr(self, _FRESH, False)
+        previous, icc.copy = icc.copy, _NoCopy() if fresh else _OneMemo()
         try:
             return plain(self, *args, **kwargs)
         finally:
             icc.copy = previous
     worker.inline_ir = inline_ir
     return True
+
+
+#: Attribute of an ``InlineWorker`` that is True while its ``inline_function`` runs.
+_FRESH = "_sweep_fresh_callee"
+
+
+@functools.cache
+def _skip_fresh_copies() -> bool:
+    """Let numba's inliner use, uncopied, the IR it builds for each call site of an
+    ``inline="always"`` function; True where it does (with :func:`_share_inline_copies`).
+
+    ``inline_function`` runs the untyped front end over the callee, for this call site
+    alone, and ``inline_ir`` then deep-copies that fresh IR twice: a working copy, which it
+    mutates and splices in, and an "unmutated" copy that it returns and the inlining pass
+    throws away. Nobody else holds the fresh IR, so working on it directly is what the copy
+    gave, without the copying: 1.1 s → 0.2 s of ``inline_ir`` over the first
+    ``sweep.cor()``, the same LLVM IR and assembly. The overloads that numba's typed pass
+    inlines come from a cache and are still copied.
+    """
+    from numba.core import inline_closurecall as icc    # noqa: PLC0415 -- numba internals
+
+    return _mark_fresh_callees(getattr(icc, "InlineWorker", None), numba.__version__)
+
+
+def _mark_fresh_callees(worker, version) -> bool:
+    """Wrap ``worker.inline_function`` to mark the worker :data:`_FRESH` while it runs,
+    where its source is one of :data:`INLINE_FUNCTION_SOURCES` under ``version``."""
+    plain = getattr(worker, "inline_function", None)
+    if not _known([plain], INLINE_FUNCTION_SOURCES, version):
+        return False
+
+    @functools.wraps(plain)
+    def inline_function(self, *args, **kwargs):
+        previous = getattr(self, _FRESH, False)
+        setattr(self, _FRESH, True)
+        try:
+            return plain(self, *args, **kwargs)
+        finally:
+            setattr(self, _FRESH, previous)
+    worker.inline_function = inline_function
+    return True
+
+
+@functools.cache
+def _leave_helpers_unemitted() -> bool:
+    """Compile a called helper (:class:`_KernelOnly`) to optimised LLVM IR only, without its
+    own machine code; True where that applies.
+
+    numba finalizes every dispatcher's code library into machine code, but a helper's is
+    never run: each caller links the helper's optimised IR into its own module (numba's
+    ``linkonce_odr`` copies) and emits it there, and Python may not call the helper. A
+    kernel loaded from the cache already runs on those copies alone. Emitting the helpers
+    took 0.44 s of the first ``sweep.cor()``'s 1.5 s of machine code.
+    """
+    from numba.core import cpu                            # noqa: PLC0415 -- numba internals
+
+    return _unemitted_helpers_in(cpu.CPUContext, numba.__version__)
+
+
+def _unemitted_helpers_in(context, version) -> bool:
+    """Wrap ``context.get_executable`` so that a helper's library is finalized unemitted,
+    where the sources of :data:`EXECUTABLE_SOURCES` are those of ``version``."""
+    from numba import _dynfunc                            # noqa: PLC0415 -- numba internals
+    from numba.core.codegen import CPUCodeLibrary         # noqa: PLC0415 -- numba internals
+
+    plain = getattr(context, "get_executable", None)
+    library_steps = [getattr(CPUCodeLibrary, "finalize", None),
+                     getattr(CPUCodeLibrary, "_finalize_final_module", None)]
+    if not _known([plain, *library_steps], EXECUTABLE_SOURCES, version):
+        return False
+
+    @functools.wraps(plain)
+    def get_executable(self, library, fndesc, env):
+        if not _helper_being_compiled(fndesc):
+            return plain(self, library, fndesc, env)
+        library._finalize_final_module = functools.partial(_finalize_unemitted, library)
+        library._ensure_finalized()
+        # numba's own entry object, with no code address: _KernelOnly refuses calls.
+        return _dynfunc.make_function(fndesc.lookup_module(), fndesc.qualname.split(".")[-1],
+                                      f"compiled wrapper for {fndesc.qualname!r}", 0, env,
+                                      (library,))
+    context.get_executable = get_executable
+    return True
+
+
+def _helper_being_compiled(fndesc) -> bool:
+    """Whether ``fndesc`` is the function of the :class:`_KernelOnly` whose compile is the
+    innermost one now (numba lowers, then finalizes, a dispatcher in its own compile)."""
+    dispatcher = _COLLECTOR.compiling
+    if not isinstance(dispatcher, _KernelOnly):
+        return False
+    fn = dispatcher.py_func
+    return fndesc.qualname == fn.__qualname__ and fndesc.modname == fn.__module__
+
+
+def _finalize_unemitted(library) -> None:
+    """numba's ``_finalize_final_module`` for a helper's library, less what makes machine
+    code (``add_module`` to the JIT engine, ``finalize_object``) and the dumps: the checks
+    run, the optimised module stays for callers to link."""
+    library._finalize_dynamic_globals()
+    library._verify_declare_only_symbols()
+    library._finalized = True

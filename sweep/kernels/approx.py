@@ -81,7 +81,7 @@ _CHUNKS_PER_THREAD = 4
 _DEFAULT_N = 21
 
 
-@cached_jit()
+@jit()
 def _clip01(x):
     if x < 0.0:
         return 0.0
@@ -90,7 +90,7 @@ def _clip01(x):
     return x
 
 
-@cached_jit()
+@jit()
 def _sqrt_plus(x):
     """``sqrt(max(x, 0))`` that keeps NaN."""
     if x > 0.0:
@@ -100,7 +100,7 @@ def _sqrt_plus(x):
     return math.nan
 
 
-@cached_jit()
+@jit()
 def _ord2(beta, gamma, i_, q_):
     """Prop. 2, (36)-(38), clipped to [0, 1] (NaN passes through)."""
     bi = beta * i_ * gamma

@@ -230,7 +230,9 @@ def _any(live):
     return False
 
 
-@jit(entry=True)
+# Called only by kernels (tests reach it through a jitted caller): no wrappers, and no
+# machine code of its own (sweep.kernels._jit._leave_helpers_unemitted).
+@jit()
 def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol, ends):
     """March the points ``i = todo[j]`` of the parameter arrays, :data:`LANES` at a time.
 

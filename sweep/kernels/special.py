@@ -50,7 +50,7 @@ import math
 
 import numpy as np
 
-from sweep.kernels._jit import cached_jit, jit
+from sweep.kernels._jit import jit
 from sweep.kernels.vmath import exp4, expm1_4, sqrt_div4
 from sweep.registry import CHEBYSHEV_N_MAX
 
@@ -63,7 +63,7 @@ __all__ = ["beta_fn", "log_abs_gamma", "gtilde_of_theta", "theta_of_gtilde", "jm
 THETA_MIN = 1e-300
 
 
-@cached_jit()
+@jit()
 def beta_fn(x, y):
     """Euler's Beta function ``B(x, y) = Gamma(x) Gamma(y) / Gamma(x + y)`` for x, y > 0.
 
@@ -81,7 +81,7 @@ _STIRLING = (1.0 / 12.0, -1.0 / 360.0, 1.0 / 1260.0, -1.0 / 1680.0, 1.0 / 1188.0
 _STIRLING_FROM = 10.0
 
 
-@cached_jit()
+@jit()
 def log_abs_gamma(x, y):
     """``ln |Gamma(x + i y)|`` for x > 0, in real arithmetic.
 
@@ -106,7 +106,7 @@ def log_abs_gamma(x, y):
 # The map (43) between g~ and theta
 # ----------------------------------------------------------------------------------------
 
-@cached_jit()
+@jit()
 def gtilde_of_theta(alpha, theta):
     """Load ``g~(theta) = ((a+1)/(2 theta))^(-1/(a+1)) (1/(2 theta) - 1/2)``, eq. (43).
 
@@ -116,7 +116,7 @@ def gtilde_of_theta(alpha, theta):
     return (ap1 / (2.0 * theta)) ** (-1.0 / ap1) * (1.0 - theta) / (2.0 * theta)
 
 
-@cached_jit()
+@jit()
 def theta_of_gtilde(alpha, gtilde):
     """Inverse of (43): the ``theta`` in (0, 1] with ``g~(theta) = g~`` (``theta(0) = 1``).
 
@@ -203,7 +203,7 @@ _BY = 4
 assert _XL.size % _BY == 0
 
 
-@cached_jit()
+@jit()
 def _tail_series(p, alpha, beta, theta, h0):
     """``int_0^h0 x^(b-1) P(x)^p dx`` for ``h0 <= 1e-3 min(theta, 1/2)``.
 
@@ -227,7 +227,7 @@ def _tail_series(p, alpha, beta, theta, h0):
     return theta ** p * h0 ** beta * (s1 - p * eps * s2)
 
 
-@cached_jit()
+@jit()
 def _right_sums(alpha, beta, theta):
     """Gauss sums of ``J`` and ``M`` on [c, 1] (``x = 1 - (1 - c) s^2``) before their
     constant factors: nodes in order, their exps four at a time (:func:`exp4`)."""
@@ -282,7 +282,7 @@ def _left_group(theta, base, fx, fa, fb, g, jp, mp):
     return jp, mp
 
 
-@cached_jit()
+@jit()
 def _left_sums(alpha, beta, theta, lo, width, m):
     """Gauss sums of ``J`` and ``M`` over the m panels [lo + p width, lo + (p + 1) width]
     of ``x = e^s`` (16 nodes each), before the factor ``width``.
@@ -311,7 +311,7 @@ def _left_sums(alpha, beta, theta, lo, width, m):
     return jl, ml
 
 
-@cached_jit()
+@jit()
 def jm_quadrature(alpha, beta, theta):
     """``J(theta)`` and ``M(theta)`` of (47) by composite Gauss-Legendre quadrature.
 
@@ -368,7 +368,7 @@ def jm_quadrature(alpha, beta, theta):
     return jr + jl + jt, mr + ml + mt
 
 
-@cached_jit()
+@jit()
 def _k_l(alpha, beta, theta):
     """``K(theta)`` and ``L(theta)`` of (47)."""
     umb = (0.5 * (alpha + 1.0) / theta) ** (beta / (alpha + 1.0))   # u_M^b
@@ -376,7 +376,7 @@ def _k_l(alpha, beta, theta):
     return 2.0 * umb / st, umb * st
 
 
-@cached_jit()
+@jit()
 def iq_quadrature(alpha, beta, gtilde):
     """``I(g~)`` and ``Q(g~)`` of Prop. 2 by quadrature (:func:`jm_quadrature`)::
 
@@ -433,13 +433,13 @@ def _tanh_sinh_table():
 _DE = _tanh_sinh_table()
 
 
-@cached_jit()
+@jit()
 def _de_stride(n):
     """Stride through ``_DE`` for order n: step ``min(0.1, 4/(n+19))``; 0 beyond N_MAX."""
     return min(_DE_STRIDE_MAX, (_DE_RULE * _DE_PER_UNIT) // (n + 19))
 
 
-@cached_jit()
+@jit()
 def chebyshev_tables(n):
     """Tables of (50)-(52) that depend on the order n only (n odd).
 
@@ -463,7 +463,7 @@ def chebyshev_tables(n):
     return logx, cosjk
 
 
-@cached_jit()
+@jit()
 def _chebyshev_coefficients(alpha, theta, n, logx, cosjk, cj):
     """``c_j`` of (50) for even ``j < n`` into ``cj[j/2]``, from ``h`` (51) at the nodes (52).
 
@@ -510,7 +510,7 @@ def _clenshaw4(cj, half, z0, z1, z2, z3):
     return z0 * a0 - d0 + c, z1 * a1 - d1 + c, z2 * a2 - d2 + c, z3 * a3 - d3 + c
 
 
-@cached_jit()
+@jit()
 def _beta_moments(alpha, beta, theta, n, cj):
     """The sums (49) for ``M_{a,b}``, ``M_{a,b+1}``, ``M_{a,a+b+1}`` as the integrals (104)::
 
@@ -556,7 +556,7 @@ def _beta_moments(alpha, beta, theta, n, cj):
     return h * m0, h * m1, h * m2
 
 
-@cached_jit()
+@jit()
 def jm_chebyshev(alpha, beta, theta, n, logx, cosjk, work):
     """``J(theta)``, ``M(theta)`` by the report's Chebyshev-Beta approximation.
 
@@ -601,7 +601,7 @@ def jm_chebyshev(alpha, beta, theta, n, logx, cosjk, work):
     return j_b, m_b
 
 
-@cached_jit()
+@jit()
 def iq_chebyshev(alpha, beta, gtilde, n, logx, cosjk, work):
     """``I(g~) = K J``, ``Q(g~) = L M`` (47) with J, M from :func:`jm_chebyshev`.
 
@@ -619,7 +619,7 @@ def iq_chebyshev(alpha, beta, gtilde, n, logx, cosjk, work):
 # Closed forms
 # ----------------------------------------------------------------------------------------
 
-@cached_jit()
+@jit()
 def iq_at_zero(alpha, beta):
     """Exact ``I(0)`` (39) and ``Q(0)`` (40)::
 
@@ -633,7 +633,7 @@ def iq_at_zero(alpha, beta):
     return f * ap1 / (ap1 + 2.0 * beta), 0.5 * f
 
 
-@cached_jit()
+@jit()
 def first_order_constants(alpha, beta):
     """``C0`` and ``C1`` of the first-order, small-g~ approximation (22)::
 
@@ -648,7 +648,7 @@ def first_order_constants(alpha, beta):
     return c0, c1
 
 
-@cached_jit()
+@jit()
 def large_gtilde_constants(alpha, beta):
     """``C`` and the exponent ``r`` of the large-g~ approximation (23)::
 
