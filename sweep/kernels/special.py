@@ -255,14 +255,14 @@ def _right_sums(alpha, beta, theta):
     return jr, mr
 
 
-@jit(inline="always")
+@jit()
 def _node_factors(f, width, g):
     """``exp(f width t_i)`` at the left-panel nodes ``t_i = _XL[g:g + 4]``."""
     fw = f * width
     return exp4((fw * _XL[g], fw * _XL[g + 1], fw * _XL[g + 2], fw * _XL[g + 3]))
 
 
-@jit(inline="always")
+@jit()
 def _left_group(theta, base, fx, fa, fb, g, jp, mp):
     """Add four nodes ``_XL[g:g + 4]`` of a panel to its sums ``jp, mp``, in node order;
     the powers of x are the panel's ``base`` (``e^(f s0)``, f = 1, alpha, beta) times the
