@@ -98,3 +98,92 @@ def test_a_mask_computes_the_vectors_that_hold_its_columns(column):
     done = np.zeros(11, bool)
     done[first:first + (step if column < whole else 1)] = True
     assert np.array_equal(P[0], np.where(done, np.log(0.5), 0.5))
+
+
+# ----------------------------------------------------------------------------------------
+# The 4-tuple forms the closed forms' quadratures use (exp4, expm1_4, log1p_4, sqrt_div4)
+# ----------------------------------------------------------------------------------------
+
+_TUPLE_FUNCTIONS = {"exp": vmath.exp4, "expm1": vmath.expm1_4, "log1p": vmath.log1p_4}
+
+
+def _by_fours(name):
+    f = _TUPLE_FUNCTIONS[name]
+
+    @numba.njit
+    def run(x):
+        out = np.empty_like(x)
+        for i in range(0, x.size, 4):
+            r = f((x[i], x[i + 1], x[i + 2], x[i + 3]))
+            for k in range(4):
+                out[i + k] = r[k]
+        return out
+    return run
+
+
+def _tuple_arguments(name, rng, n):
+    """The quadratures' arguments: exps of f log x, x in (1e-40, 1), f in [0, 11]
+    (underflow included); expm1 of a log near 0 and below; log1p of -d, d in (0, 1/2]."""
+    if name == "log1p":
+        return -rng.uniform(1e-6, 0.5, n)
+    lx = -10 ** rng.uniform(-8, 2, n)
+    return rng.uniform(0, 11, n) * lx
+
+
+def _mp_of(name, x):
+    f = {"exp": mpmath.exp, "expm1": mpmath.expm1, "log1p": mpmath.log1p}[name]
+    with mpmath.workdps(40):
+        return np.array([float(f(mpmath.mpf(v))) for v in x])
+
+
+@pytest.mark.parametrize("name", ["exp", "expm1", "log1p"])
+def test_tuples_within_glibcs_bound_of_mpmath(name):
+    x = _tuple_arguments(name, np.random.default_rng(3), 20_000)
+    got, ref = _by_fours(name)(x), _mp_of(name, x)
+    normal = np.abs(ref) >= np.finfo(float).tiny
+    assert np.all(np.abs(got - ref)[normal] <= ULPS * EPS * np.abs(ref[normal]))
+    assert np.all(np.abs(got - ref)[~normal] <= ULPS * 5e-324)
+
+
+def test_exp4_is_exp1_in_every_lane():
+    """A lane's bits do not depend on its neighbours, and match the one-point exp1."""
+    rng = np.random.default_rng(4)
+    x = _tuple_arguments("exp", rng, 4000)
+    junk = np.array([0.0, 1.0, -800.0, 800.0, np.nan, -np.inf])
+    mixed = rng.choice(junk, x.size)
+    keep = rng.integers(0, 2, x.size).astype(bool)
+    got = _by_fours("exp")(np.where(keep, x, mixed))
+    assert np.array_equal(got[keep], _ones(x[keep], 1))
+
+
+@numba.njit
+def _sqrt_div_by_fours(x, y):
+    root, ratio = np.empty_like(x), np.empty_like(x)
+    for i in range(0, x.size, 4):
+        r, q = vmath.sqrt_div4((x[i], x[i + 1], x[i + 2], x[i + 3]),
+                               (y[i], y[i + 1], y[i + 2], y[i + 3]))
+        for k in range(4):
+            root[i + k], ratio[i + k] = r[k], q[k]
+    return root, ratio
+
+
+def test_sqrt_div4_is_ieee_sqrt_and_division():
+    """Correctly rounded, so numpy's sqrt and division give the same bits."""
+    rng = np.random.default_rng(5)
+    x = 10 ** rng.uniform(-300, 300, 8000)
+    x[::97] = 0.0
+    y = rng.normal(size=x.size) * 10 ** rng.uniform(-100, 100, x.size)
+    root, ratio = _sqrt_div_by_fours(x, y)
+    with np.errstate(divide="ignore"):
+        assert np.array_equal(root, np.sqrt(x)) and np.array_equal(ratio, y / np.sqrt(x))
+
+
+def test_tuples_fall_back_to_math_for_another_cpu_than_the_host():
+    code = ("import math, numba; from sweep.kernels import vmath\n"
+            "f = numba.njit(lambda x: (vmath.exp4((x, x, x, x))[2], vmath.expm1_4((x, x, x, x))[1],"
+            " vmath.log1p_4((x, x, x, x))[3]))\n"
+            "print(sorted(vmath.HAS), f(0.3) == (math.exp(0.3), math.expm1(0.3), math.log1p(0.3)))")
+    env = dict(os.environ, NUMBA_CPU_NAME="generic")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                         text=True, check=True).stdout.split()
+    assert out == ["[]", "True"]

@@ -26,7 +26,14 @@ exp within 3 (glibc's scalar calls: 1 and 1); they differ from the scalar calls'
 for 21% of the logs and 31% of the exps. ``tests/test_vmath.py`` holds them to 4. The report's models and integer exponents take no
 exp or log in their stages: their results do not depend on this module.
 
-Owns: the vector exp and log and the choice of their variant. May import: nothing from
+**The closed forms' quadratures** (:mod:`sweep.kernels.special`) take the exps of their
+nodes four at a time as tuples (:func:`exp4`, :func:`expm1_4`; :func:`log1p_4` too), no
+array in between, and the nodes' square roots and divisions four at a time
+(:func:`sqrt_div4`, IEEE vector operations, the bits of the scalar ones). libmvec's expm1
+and log1p came with glibc 2.35: :data:`HAS` says which functions it has here, and a
+function it lacks is math's call element by element.
+
+Owns: the vector exp, log, expm1, log1p and the choice of their variant. May import: nothing from
 ``sweep`` but _jit.
 """
 from __future__ import annotations
@@ -44,7 +51,8 @@ from numba.extending import intrinsic
 
 from sweep.kernels._jit import jit
 
-__all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log_row", "exp_row"]
+__all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log_row", "exp_row", "exp4", "expm1_4",
+           "log1p_4", "sqrt_div4", "HAS"]
 
 # libmvec's variants, in order of preference: (CPU feature, name letter of the x86_64
 # vector ABI, doubles per vector). AVX2 before AVX-512: on the AMD EPYC (Zen 4) where it was
@@ -83,6 +91,10 @@ _LETTER, WIDTH = _variant()
 VARIANT = _name(_LETTER, WIDTH, "")[:-1] if WIDTH else ""
 # Elements one call of _apply_at takes: a vector, or one scalar call.
 _STEP = WIDTH or 1
+#: The functions of this module that libmvec has in the variant in use (its expm1 and
+#: log1p came with glibc 2.35); the others are math's calls, element by element.
+HAS = frozenset(f for f in ("exp", "log", "expm1", "log1p")
+                if WIDTH and llvm.address_of_symbol(_name(_LETTER, WIDTH, f)))
 
 
 def _vector_call(builder, function, vector):
@@ -94,7 +106,8 @@ def _vector_call(builder, function, vector):
 
 
 def _scalar_call(context, builder, function, x):
-    """``math.<function>(x)`` as the target compiles it (the C library's, libdevice's)."""
+    """``math.<function>(x)`` as the target compiles it (the C library's, libdevice's,
+    LLVM's sqrt)."""
     sig = types.float64(types.float64)
     return context.get_function(getattr(math, function), sig)(builder, [x])
 
@@ -191,3 +204,88 @@ def _row_with(vector_at, scalar):
 log_row = jit(inline="always")(_row_with(_log_at, _log_lane0))
 #: ``P[r, k] = exp(P[r, k])`` in place for the columns of ``mask``, as :func:`log_row`.
 exp_row = jit(inline="always")(_row_with(_exp_at, _exp_lane0))
+
+
+# Elements of the tuples of exp4, expm1_4 and log1p_4.
+_TUPLE = 4
+
+
+def _tuple_intrinsic(function):
+    """Intrinsic: ``function`` of each element of a 4-tuple of float64, by as many vector
+    calls as :data:`WIDTH` needs (lanes past the tuple hold 1.0), or by math's calls where
+    the host's libmvec lacks ``function``. No array, so no reference count to update: the
+    closed forms call it at every quadrature node."""
+
+    @intrinsic
+    def of4(typingctx, t):
+        if not (isinstance(t, types.UniTuple) and t.count == _TUPLE
+                and t.dtype == types.float64):
+            raise numba.core.errors.TypingError(f"a 4-tuple of float64 is needed, got {t}")
+
+        def codegen(context, builder, signature, args):
+            values = cgutils.unpack_tuple(builder, args[0])
+            if function not in HAS or not isinstance(context, CPUContext):
+                out = [_scalar_call(context, builder, function, v) for v in values]
+            else:
+                out = []
+                for start in range(0, _TUPLE, WIDTH):
+                    lanes = ir.Constant(ir.VectorType(ir.DoubleType(), WIDTH), [1.0] * WIDTH)
+                    part = values[start:start + WIDTH]
+                    for k, v in enumerate(part):
+                        lanes = builder.insert_element(lanes, v, ir.Constant(ir.IntType(32), k))
+                    result = _vector_call(builder, function, lanes)
+                    out += [builder.extract_element(result, ir.Constant(ir.IntType(32), k))
+                            for k in range(len(part))]
+            return context.make_tuple(builder, signature.return_type, out)
+        return t(t), codegen
+    return of4
+
+
+#: ``(exp(x0), .., exp(x3))`` of a 4-tuple of float64, bit for bit as :func:`exp1` gives
+#: each (vector functions are elementwise).
+exp4 = _tuple_intrinsic("exp")
+#: ``expm1`` of each element of a 4-tuple of float64 (libmvec's where it has it).
+expm1_4 = _tuple_intrinsic("expm1")
+#: ``log1p`` of each element of a 4-tuple of float64 (libmvec's where it has it).
+log1p_4 = _tuple_intrinsic("log1p")
+
+
+@intrinsic
+def sqrt_div4(typingctx, x, y):
+    """``(sqrt(x_k), y_k / sqrt(x_k))`` of two 4-tuples of float64, as 4-wide vector
+    operations: IEEE square root and division are correctly rounded, so each element has the
+    bits of the scalar ``math.sqrt`` and ``/``; the quadrature nodes' sqrt and division,
+    one at a time, were throughput-bound (scalar vsqrtsd, vdivsd)."""
+    for t in (x, y):
+        if not (isinstance(t, types.UniTuple) and t.count == _TUPLE
+                and t.dtype == types.float64):
+            raise numba.core.errors.TypingError(f"4-tuples of float64 are needed, got {t}")
+
+    def codegen(context, builder, signature, args):
+        if not isinstance(context, CPUContext):
+            # The GPU (the undamped duration's quadrature is in its kernel): scalar forms.
+            roots = [_scalar_call(context, builder, "sqrt", v)
+                     for v in cgutils.unpack_tuple(builder, args[0])]
+            ratios = [builder.fdiv(v, r)
+                      for v, r in zip(cgutils.unpack_tuple(builder, args[1]), roots)]
+            return context.make_tuple(builder, signature.return_type,
+                                      [context.make_tuple(builder, x, roots),
+                                       context.make_tuple(builder, x, ratios)])
+        vt = ir.VectorType(ir.DoubleType(), _TUPLE)
+        xv, yv = (_pack(builder, vt, cgutils.unpack_tuple(builder, a)) for a in args)
+        sqrt = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vt, [vt]),
+                                              f"llvm.sqrt.v{_TUPLE}f64")
+        root = builder.call(sqrt, [xv])
+        ratio = builder.fdiv(yv, root)
+        out = [context.make_tuple(builder, x, [builder.extract_element(
+            v, ir.Constant(ir.IntType(32), k)) for k in range(_TUPLE)]) for v in (root, ratio)]
+        return context.make_tuple(builder, signature.return_type, out)
+    return types.Tuple((x, x))(x, y), codegen
+
+
+def _pack(builder, vt, values):
+    """An LLVM vector of the scalars ``values``."""
+    v = ir.Constant(vt, ir.Undefined)
+    for k, e in enumerate(values):
+        v = builder.insert_element(v, e, ir.Constant(ir.IntType(32), k))
+    return v
