@@ -7,9 +7,10 @@ together: every stage is formed for all lanes before the next
 (:func:`sweep.kernels.stepper.rk_step_lanes`), so that the lanes' independent chains
 overlap, and everything else of a step -- its size, the damping cap, the events, the
 stopping rules -- is the one-point march's own code (:func:`sweep.kernels.march.first_guess`,
-:func:`sweep.kernels.march.after_stages`), run per lane. A lane whose march has ended takes
-the next point (those with general exponents first, whose stages take their powers by
-vectors of lanes: :func:`_general_first`).
+:func:`sweep.kernels.march.after_stages_estimated`), run per lane; only the step's local
+error estimates are formed for all lanes in one loop first (:func:`_local_errors`). A lane
+whose march has ended takes the next point (those with general exponents first, whose
+stages take their powers by vectors of lanes: :func:`_general_first`).
 
 Per point the operations are exactly those of :func:`sweep.kernels.march.march`, in the same
 order: the Endings are bit-identical to it whatever the other lanes hold
@@ -46,9 +47,9 @@ from numba.extending import intrinsic
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import LAW_COLUMNS, general_exponents, law_at, make_law, put_law
 from sweep.kernels.creep import Creep, creep_constants
-from sweep.kernels.march import (GOING, Ending, State, after_stages, out_of_budget, scratch,
-                                 start)
-from sweep.kernels.stepper import N_STAGES, rk_step_lanes
+from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated, out_of_budget,
+                                 scratch, start)
+from sweep.kernels.stepper import N_STAGES, local_error, rk_step_lanes
 from sweep.kernels.stepsize import StepPolicy, first_guess, policy
 
 __all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
@@ -76,7 +77,7 @@ class Lanes(NamedTuple):
     u: np.ndarray       # float64: the state's u and w, which the stages read
     w: np.ndarray
     h: np.ndarray       # float64: the step about to be taken
-    y: np.ndarray       # float64 (LANES, 3): its (u_new, w_new, dr)
+    y: np.ndarray       # float64 (LANES, 5): its (u_new, w_new, dr), local errors of w, q
     K: np.ndarray       # float64 (LANES, N_STAGES, 3): each lane's stages
     P: np.ndarray       # float64 (3, LANES): the stages' log and exps (rk_step_lanes)
 
@@ -119,7 +120,7 @@ def _lanes():
     return Lanes(point, live, np.empty((LANES, LAW_COLUMNS[0])),
                  np.empty((LANES, LAW_COLUMNS[1]), np.int64),
                  np.empty((LANES, 7)), np.empty((LANES, 14)), np.empty((LANES, 6), np.int64),
-                 np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((LANES, 3)),
+                 np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((LANES, 5)),
                  np.empty((LANES, N_STAGES, 3)), np.empty((3, LANES)))
 
 
@@ -223,6 +224,16 @@ def _general_first(alpha, beta, todo):
 
 
 @jit(inline="always")
+def _local_errors(ln):
+    """Every live lane's local error estimates of w and q (:func:`local_error`) in columns
+    3 and 4 of ``ln.y``: in one loop the lanes' chains of multiply-adds overlap."""
+    for lane in range(LANES):
+        if ln.live[lane]:
+            # ln.K[lane] is a view of a borrowed array: it costs no count.
+            _, ln.y[lane, 3], ln.y[lane, 4] = local_error(ln.K[lane], ln.h[lane])
+
+
+@jit(inline="always")
 def _any(live):
     for x in live:
         if x:
@@ -272,13 +283,15 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
                     ln.live[lane], idle = False, True
         if not idle:
             rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y, ln.P)
+            _local_errors(ln)
             for lane in range(LANES):  # the rest of march()'s step
                 if ln.live[lane]:
                     # ln.K[lane] is a view of a borrowed array: it costs no count.
-                    st, end = after_stages(_state(ln, lane), law_at(ln.LF, ln.LI, lane),
-                                           _creep_at(ln, lane), ln.h[lane], ln.y[lane, 0],
-                                           ln.y[lane, 1], ln.y[lane, 2], ln.K[lane], K2, Q,
-                                           rest_tol, e_tol, budget[ln.point[lane]])
+                    y = ln.y
+                    st, end = after_stages_estimated(
+                        _state(ln, lane), law_at(ln.LF, ln.LI, lane), _creep_at(ln, lane),
+                        ln.h[lane], y[lane, 0], y[lane, 1], y[lane, 2], y[lane, 3], y[lane, 4],
+                        ln.K[lane], K2, Q, rest_tol, e_tol, budget[ln.point[lane]])
                     if end.kind == GOING:
                         _put_state(ln, lane, st)
                     else:
