@@ -24,7 +24,9 @@ points/s on 4,000,000 KK points when the order costs nothing).
 for two reasons that no option of numba-cuda removes: NVVM contracts ``a * b + c`` into
 fused multiply-adds where LLVM on the CPU may pick other pairs or none (the CPU kernels
 allow contraction too, :data:`sweep.kernels._jit.FLAGS`), and CUDA's libdevice
-``pow``/``exp``/``log`` may differ from the C library's in the last bit (``sqrt`` and
+``pow``/``exp``/``log`` may differ from the C library's in the last bit, and from glibc's
+vector functions (libmvec, within 4 ulp), which the CPU takes for general exponents'
+stages and the second-order quadrature (:mod:`sweep.kernels.vmath`; ``sqrt`` and
 division are correctly rounded on both). Both change e by a few ulp on ordinary points;
 where the integrator amplifies rounding (near the stick/rebound boundary, by about 1/e)
 the difference stays within ``e_err``, and a point whose indicator sits right at the
