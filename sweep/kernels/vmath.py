@@ -27,13 +27,12 @@ for 21% of the logs and 31% of the exps. ``tests/test_vmath.py`` holds them to 4
 exp or log in their stages: their results do not depend on this module.
 
 **The closed forms' quadratures** (:mod:`sweep.kernels.special`) take the exps of their
-nodes four at a time as tuples (:func:`exp4`, :func:`expm1_4`; :func:`log1p_4` too), no
-array in between, and the nodes' square roots and divisions four at a time
+nodes four at a time as tuples (:func:`exp4`, :func:`expm1_4`), no array in between, and the nodes' square roots and divisions four at a time
 (:func:`sqrt_div4`, IEEE vector operations, the bits of the scalar ones). libmvec's expm1
-and log1p came with glibc 2.35: :data:`HAS` says which functions it has here, and a
+came with glibc 2.35: :data:`HAS` says which functions it has here, and a
 function it lacks is math's call element by element.
 
-Owns: the vector exp, log, expm1, log1p and the choice of their variant. May import: nothing from
+Owns: the vector exp, log, expm1 and the choice of their variant. May import: nothing from
 ``sweep`` but _jit.
 """
 from __future__ import annotations
@@ -52,7 +51,7 @@ from numba.extending import intrinsic
 from sweep.kernels._jit import jit
 
 __all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log_row", "exp_row", "exp4", "expm1_4",
-           "log1p_4", "sqrt_div4", "HAS"]
+           "sqrt_div4", "HAS"]
 
 # libmvec's variants, in order of preference: (CPU feature, name letter of the x86_64
 # vector ABI, doubles per vector). AVX2 before AVX-512: on the AMD EPYC (Zen 4) where it was
@@ -91,9 +90,9 @@ _LETTER, WIDTH = _variant()
 VARIANT = _name(_LETTER, WIDTH, "")[:-1] if WIDTH else ""
 # Elements one call of _apply_at takes: a vector, or one scalar call.
 _STEP = WIDTH or 1
-#: The functions of this module that libmvec has in the variant in use (its expm1 and
-#: log1p came with glibc 2.35); the others are math's calls, element by element.
-HAS = frozenset(f for f in ("exp", "log", "expm1", "log1p")
+#: The functions of this module that libmvec has in the variant in use (its expm1 came
+#: with glibc 2.35); the others are math's calls, element by element.
+HAS = frozenset(f for f in ("exp", "log", "expm1")
                 if WIDTH and llvm.address_of_symbol(_name(_LETTER, WIDTH, f)))
 
 
@@ -206,7 +205,7 @@ log_row = jit(inline="always")(_row_with(_log_at, _log_lane0))
 exp_row = jit(inline="always")(_row_with(_exp_at, _exp_lane0))
 
 
-# Elements of the tuples of exp4, expm1_4 and log1p_4.
+# Elements of the tuples of exp4 and expm1_4.
 _TUPLE = 4
 
 
@@ -246,8 +245,6 @@ def _tuple_intrinsic(function):
 exp4 = _tuple_intrinsic("exp")
 #: ``expm1`` of each element of a 4-tuple of float64 (libmvec's where it has it).
 expm1_4 = _tuple_intrinsic("expm1")
-#: ``log1p`` of each element of a 4-tuple of float64 (libmvec's where it has it).
-log1p_4 = _tuple_intrinsic("log1p")
 
 
 @intrinsic
