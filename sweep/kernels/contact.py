@@ -235,8 +235,8 @@ def _general_arguments(alpha, beta, lu):
 @jit()
 def general_exponents(alpha, beta):
     """The law of ``(alpha, beta)`` takes :func:`rhs`'s general branch (for u > 0)."""
-    return _general(power_kind(beta - 1.0), power_kind(alpha),
-                    _integer(alpha) and _integer(beta))
+    c = make_law(alpha, beta, 0.0, 0.0)     # its codes, as every driver forms them
+    return _general(c.kd, c.ka, c.smooth)
 
 
 @jit(inline="always")
