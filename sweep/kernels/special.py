@@ -227,6 +227,13 @@ def _tail_series(p, alpha, beta, theta, h0):
     return theta ** p * h0 ** beta * (s1 - p * eps * s2)
 
 
+@jit(inline="always")
+def _four(g, last):
+    """Node indices ``g .. g + 3`` for a call of the 4-tuple functions; those past ``last``
+    are ``last`` again (computed, not summed)."""
+    return g, min(g + 1, last), min(g + 2, last), min(g + 3, last)
+
+
 @jit()
 def _right_sums(alpha, beta, theta):
     """Gauss sums of ``J`` and ``M`` on [c, 1] (``x = 1 - (1 - c) s^2``) before their
@@ -234,8 +241,7 @@ def _right_sums(alpha, beta, theta):
     jr = 0.0
     mr = 0.0
     for g in range(0, _XR.size, _BY):
-        i0, i1, i2, i3 = g, min(g + 1, _XR.size - 1), min(g + 2, _XR.size - 1), \
-            min(g + 3, _XR.size - 1)
+        i0, i1, i2, i3 = _four(g, _XR.size - 1)
         ex = expm1_4((alpha * _DR[1, i0], alpha * _DR[1, i1], alpha * _DR[1, i2],
                       alpha * _DR[1, i3]))
         eb = exp4(((beta - 1.0) * _DR[1, i0], (beta - 1.0) * _DR[1, i1],
@@ -473,8 +479,8 @@ def _chebyshev_coefficients(alpha, theta, n, logx, cosjk, cj):
     for jj in range(half):
         cj[jj] = 0.0
     for g in range(0, half, _BY):
-        # Four nodes' exps a call (past the last node: the last, not summed).
-        i0, i1, i2, i3 = g, min(g + 1, half - 1), min(g + 2, half - 1), min(g + 3, half - 1)
+        # Four nodes' exps a call.
+        i0, i1, i2, i3 = _four(g, half - 1)
         lx = (logx[i0], logx[i1], logx[i2], logx[i3])
         xs = exp4(lx)
         xa = exp4(((alpha + 1.0) * lx[0], (alpha + 1.0) * lx[1], (alpha + 1.0) * lx[2],
