@@ -164,13 +164,16 @@ def test_restart_under_someone_elses_lock_touches_nothing(tmp_path, monkeypatch,
 
 #: Runs `sweep run` with a compute_chunk that waits, before its third chunk (the fourth call:
 #: the first is the warm-up), until the file named by SWEEP_TEST_GATE exists: the test
-#: decides when it goes on (no sleeps).
+#: decides when it goes on (no sleeps). The chunks are written in the main thread, so that
+#: when it creates SWEEP_TEST_GATE + ".waiting" the files on disk are still.
 GATED = """
 import os, sys, time
 import sweep.sweeps.runner as r
+r.WRITE_BEHIND = 0
 real, count = r.compute_chunk, [0]
 def gated(*a):
     if count[0] == 3:
+        open(os.environ["SWEEP_TEST_GATE"] + ".waiting", "w").close()
         deadline = time.monotonic() + 120
         while not os.path.exists(os.environ["SWEEP_TEST_GATE"]):
             assert time.monotonic() < deadline, "the test never opened the gate"
@@ -197,7 +200,7 @@ def test_concurrent_restart_in_another_process_is_refused(tmp_path, reference):
     try:
         partial = store.partial_dir(out)
         deadline = time.monotonic() + 120
-        while len(list(partial.glob("chunk_*.npz"))) < 2:
+        while not Path(f"{gate}.waiting").exists():
             assert first.poll() is None, first.stderr.read()
             assert time.monotonic() < deadline
             time.sleep(0.01)

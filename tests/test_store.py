@@ -80,8 +80,7 @@ def test_grid_dataset_round_trips_exactly(tmp_path):
         np.testing.assert_array_equal(ds.status.attrs["flag_values"], [0, 1, 2, 3, 4])
         check_attrs(ds)
         assert ds.attrs["Conventions"] == "CF-1.8"
-        enc = ds.e_numeric.encoding
-        assert enc["zlib"] and enc["shuffle"]
+        assert ds.e_numeric.encoding["fletcher32"]
         ds.load().to_netcdf(tmp_path / "again.nc")
     with xr.open_dataset(path) as a, xr.open_dataset(tmp_path / "again.nc") as b:
         xr.testing.assert_identical(a, b)
@@ -113,6 +112,44 @@ def test_point_dataset_has_parameters_as_coordinates(tmp_path):
     with pytest.raises(ValueError, match="expected 10"):
         w.write(0, 10, {k: v[:9] for k, v in data.items()}, points)
     w.close()
+
+
+def test_each_variable_is_compressed_only_where_deflate_saves_bytes(tmp_path):
+    n = 20000
+    rng = np.random.default_rng(2)
+    sparse = np.where(rng.random(n) < 0.9, 0.0, rng.random(n))    # e of sticking points
+    data = {"e_numeric": rng.random(n),                           # random bits: incompressible
+            "u_max": np.linspace(0.1, 0.2, n),                    # smooth: shared high bytes
+            "e_ord1": sparse, "error_ord1": sparse,
+            "t_f": rng.random(n) * 5,
+            "n_steps": rng.integers(0, 100, n, dtype=np.int32),   # small counts
+            "sticks": (sparse == 0).astype(np.int8), "status": np.zeros(n, np.int8)}
+    layout = store.Layout(dims=("point",), shape=(n,), axes={},
+                          point_coords=("alpha", "beta", "gamma", "gtilde"))
+    points = {k: np.full(n, 1.5) for k in layout.point_coords}
+    path = tmp_path / "doe.nc"
+    write_dataset(path, layout, data, [(0, 7000), (7000, n)], points)
+    with xr.open_dataset(path) as ds:
+        for k, v in data.items():
+            np.testing.assert_array_equal(ds[k].values, v)
+        enc = {k: ds[k].encoding for k in list(data) + list(points)}
+    assert not enc["e_numeric"]["zlib"] and not enc["t_f"]["zlib"]
+    for k in ("u_max", "e_ord1", "error_ord1", "n_steps", "sticks", "status", *points):
+        assert enc[k]["zlib"], k
+    assert enc["u_max"]["shuffle"] and enc["alpha"]["shuffle"]
+    assert all(e["fletcher32"] for e in enc.values())
+    raw = sum(v.nbytes for v in data.values()) + 4 * 8 * n
+    # the incompressible ones stored as they are, the rest far smaller
+    assert path.stat().st_size < 2 * 8 * n + 0.5 * (raw - 2 * 8 * n)
+
+
+def test_a_file_no_chunk_reached_still_holds_every_variable(tmp_path):
+    axes = {"alpha": np.array([1.5]), "beta": np.array([1.5]), "gamma": np.array([0.1]),
+            "gtilde": np.array([0.0, 1.0])}
+    layout = store.Layout(dims=tuple(axes), shape=(1, 1, 1, 2), axes=axes)
+    store.NetCDFWriter(tmp_path / "x.nc", layout, VARIABLES).close()
+    with xr.open_dataset(tmp_path / "x.nc") as ds:
+        assert set(VARIABLES) <= set(ds.data_vars)
 
 
 def test_a_value_that_does_not_fit_its_stored_type_is_refused(tmp_path):

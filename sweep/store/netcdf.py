@@ -1,9 +1,10 @@
 """The netCDF4 output backend and the atomic publication of a finished file.
 
 Owns :class:`NetCDFWriter` (a :class:`sweep.store.layout.Writer`): variables are created up
-front at their final size and filled chunk by chunk as chunks finish, so memory stays
-bounded whatever the design size; the storage chunking, compression and HDF5 cache
-settings; and :func:`commit`, the fsync + rename that makes the output appear atomically.
+at their final size when the first chunk arrives and filled chunk by chunk as chunks
+finish, so memory stays bounded whatever the design size; the storage chunking, the
+choice of compression per variable (:func:`deflate_filters`) and the HDF5 cache settings;
+and :func:`commit`, the fsync + rename that makes the output appear atomically.
 
 The file opens with a plain ``xarray.open_dataset``: grid designs have dimensions
 (alpha, beta, gamma, gtilde) with coordinate variables, scattered designs a ``point``
@@ -22,18 +23,20 @@ May import: numpy, netCDF4 and the store's own :mod:`~sweep.store.layout` and
 from __future__ import annotations
 
 import os
+import zlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import netCDF4
+import numpy as np
 
 from sweep.store.layout import Layout, flat_blocks
 from sweep.store.schema import (Variable, cast_exactly, chunk_values, dataset_variables,
                                 stored_attr)
 
 __all__ = ["NetCDFWriter", "commit", "same_file", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK",
-           "COMPLEVEL", "CHECKSUM", "SUFFIXES"]
+           "COMPLEVEL", "CHECKSUM", "SUFFIXES", "deflate_filters"]
 
 #: File name suffixes of the outputs this backend writes. Any other suffix is refused
 #: rather than written as netCDF under a misleading name (``out.zarr`` would be HDF5).
@@ -53,6 +56,51 @@ CHECKSUM = True
 #: zlib level: 1 is several times faster than the default 4 at a nearly equal ratio on
 #: these (mostly incompressible float64) data; the shuffle filter does most of the gain.
 COMPLEVEL = 1
+#: Deflate is kept for a variable only where it saves at least this fraction of the bytes.
+#: It costs ~20 ms of a core per 512 kB storage chunk of float64 (~25 MB/s), taken from
+#: the kernels' cores when every core computes (configs/sobol_1m.toml: 2 s of CPU a
+#: million points with every variable deflated), and saves only 12-20% of the times, u_max,
+#: e and gamma of scattered points (random low-order bits).
+MIN_DEFLATE_SAVING = 0.15
+#: Bytes of a variable's first chunk compressed on trial, in TRIAL_PIECES pieces spread
+#: over it (a grid's first points may all lie in one corner of the parameter space).
+TRIAL_BYTES = 2 ** 15
+TRIAL_PIECES = 4
+
+
+def deflate_filters(values: np.ndarray) -> dict:
+    """createVariable's compression keywords for a variable holding data like ``values``.
+
+    Deflate (level :data:`COMPLEVEL`) with HDF5's shuffle filter or without it, whichever
+    compresses a trial of :data:`TRIAL_BYTES` of ``values`` smaller, or no compression
+    where neither saves :data:`MIN_DEFLATE_SAVING` of those bytes. Shuffle groups the
+    bytes of equal significance (it wins on smooth coordinates and counts); without it,
+    runs of exact zeros (the e of sticking points) compress better.
+
+    Parameters
+    ----------
+    values : ndarray
+        The variable's values in a first chunk (any shape; read in C order).
+
+    Returns
+    -------
+    dict
+        ``zlib``, ``shuffle`` and, with zlib, ``complevel``.
+    """
+    flat = np.ascontiguousarray(values).reshape(-1)
+    size = flat.dtype.itemsize
+    piece = max(1, TRIAL_BYTES // size // TRIAL_PIECES)
+    starts = np.linspace(0, max(flat.size - piece, 0), TRIAL_PIECES).astype(int)
+    trial = np.unique(np.concatenate([np.arange(s, min(s + piece, flat.size))
+                                      for s in starts]))
+    raw = flat[trial].view(np.uint8)
+    if raw.size == 0:   # no data to judge by
+        return {"zlib": True, "complevel": COMPLEVEL, "shuffle": size > 1}
+    plain = len(zlib.compress(raw.tobytes(), COMPLEVEL))
+    shuffled = len(zlib.compress(raw.reshape(-1, size).T.tobytes(), COMPLEVEL))
+    if min(plain, shuffled) > (1 - MIN_DEFLATE_SAVING) * raw.size:
+        return {"zlib": False, "shuffle": False}
+    return {"zlib": True, "complevel": COMPLEVEL, "shuffle": shuffled < plain}
 
 
 def _storage_chunks(shape: tuple) -> tuple:
@@ -100,18 +148,26 @@ class NetCDFWriter:
             self._nc.close()
             raise
 
-    def _create(self, var: Variable, chunks: tuple) -> None:
-        """A variable filled chunk by chunk: compressed, in storage chunks."""
+    def _create(self, var: Variable, chunks: tuple, filters: dict) -> None:
+        """A variable filled chunk by chunk: in storage chunks, compressed by ``filters``
+        (:func:`deflate_filters`)."""
         attrs = dict(var.attrs)
         # _FillValue must be set when the variable is created; False: no _FillValue.
         fill = attrs.pop("_FillValue", False)
-        nc_var = self._nc.createVariable(var.name, var.dtype, var.dims, zlib=True,
-                                         complevel=COMPLEVEL, shuffle=True,
+        nc_var = self._nc.createVariable(var.name, var.dtype, var.dims, **filters,
                                          fletcher32=CHECKSUM, chunksizes=chunks,
                                          fill_value=fill)
         nc_var.set_var_chunk_cache(size=CHUNK_CACHE_BYTES)
         nc_var.set_auto_maskandscale(False)
         nc_var.setncatts(attrs)
+
+    def _create_deferred(self, values: Mapping[str, np.ndarray]) -> None:
+        """Create the computed variables, in their order, each compressed as suits its
+        ``values`` (a first chunk's; without them, deflate with shuffle)."""
+        deferred, self._deferred = self._deferred, []
+        for var in deferred:
+            sample = values.get(var.name, np.empty(0, var.dtype))
+            self._create(var, self._chunks, deflate_filters(sample))
 
     def _constant(self, var: Variable) -> None:
         """A variable written once, here: an axis or a constant of the layout."""
@@ -128,12 +184,16 @@ class NetCDFWriter:
         nc.set_auto_maskandscale(False)
         for dim, n in zip(lay.dims, lay.shape):
             nc.createDimension(dim, n)
-        chunks = _storage_chunks(lay.shape)
+        self._chunks = _storage_chunks(lay.shape)
+        # The computed variables are created at the first write, when their compression
+        # can be chosen from data (netCDF-4 files take new variables at any time).
+        self._deferred = []
         for var in dataset_variables(lay, self.variables):
             if var.values is not None:
                 self._constant(var)
             else:
-                self._create(var, chunks)
+                self._deferred.append(var)
+        self._dtypes = {var.name: var.dtype for var in self._deferred}
         self.set_attrs(attrs)
 
     def set_attrs(self, attrs: Mapping[str, Any]) -> None:
@@ -166,18 +226,27 @@ class NetCDFWriter:
         ValueError
             If an array has the wrong length, or per-point coordinates are missing.
         """
-        for name, arr in chunk_values(self.layout, start, stop, arrays, points).items():
+        values = {name: cast_exactly(name, arr, self._dtypes[name])  # booleans -> flags
+                  for name, arr in chunk_values(self.layout, start, stop, arrays,
+                                                points).items()}
+        if self._deferred:
+            self._create_deferred(values)
+        for name, arr in values.items():
             var = self._nc.variables[name]
-            arr = cast_exactly(name, arr, var.dtype)  # booleans -> byte flags
             for sl, lo, hi in flat_blocks(self.layout.shape, start, stop):
                 block = arr[lo - start:hi - start]
                 var[sl] = block.reshape(tuple(s.stop - s.start for s in sl))
 
     def close(self) -> None:
         """Close the file (idempotent, also after a failed close, e.g. on a full disk)."""
-        nc, self._nc = self._nc, None
-        if nc is not None and nc.isopen():
-            nc.close()
+        nc = self._nc
+        try:
+            if nc is not None and nc.isopen():
+                self._create_deferred({})   # a file no chunk was written into
+        finally:
+            self._nc = None
+            if nc is not None and nc.isopen():
+                nc.close()
 
 
 def _fsync_path(path, directory=False):

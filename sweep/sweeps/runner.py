@@ -10,7 +10,7 @@ Two executors:
 
 * local (default): chunks are fed one after another, from the main thread, to the api
   functions, which already run on all cores (:mod:`sweep.kernels._parallel`). The netCDF
-  writing (zlib compression) happens in one background thread, overlapping the next chunk
+  writing (zlib compression where it pays) happens in one background thread, overlapping the next chunk
   (see :class:`_WriteBehind`; on 2 cores it cut a 4e6-point run of cheap approximations
   from 25 s to 17 s). Saving a chunk for resume stays synchronous: a chunk is reported done
   only once it is on disk.
