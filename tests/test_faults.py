@@ -18,6 +18,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 import traceback
 from pathlib import Path
@@ -692,6 +693,33 @@ def test_a_worker_running_another_sweep_is_refused(tmp_path):
             worker.kill()
             worker.wait(timeout=60)
     assert not out.exists()
+
+
+def test_a_cluster_without_workers_says_so_and_runs_once_one_joins(tmp_path, reference):
+    # A scheduler with no worker held the chunks and the run waited in silence.
+    distributed = pytest.importorskip("distributed")
+    out, said, box = tmp_path / "out.nc", [], {}
+    with distributed.LocalCluster(n_workers=0, processes=False, protocol="tcp://",
+                                  host="127.0.0.1", dashboard_address=None) as cluster:
+        def go():
+            try:
+                box["result"] = run(GRID, out, scheduler=cluster.scheduler_address,
+                                    log=said.append)
+            except BaseException as exc:  # noqa: BLE001 - re-raised in the test's thread
+                box["error"] = exc
+        thread = threading.Thread(target=go)
+        thread.start()
+        deadline = time.monotonic() + 120
+        while not any("no workers yet" in m for m in said):
+            assert thread.is_alive() and time.monotonic() < deadline, box
+            time.sleep(0.05)
+        assert not out.exists()
+        cluster.scale(1)
+        thread.join(timeout=120)
+    assert "error" not in box, box
+    line = next(m for m in said if "no workers yet" in m)
+    assert cluster.scheduler_address in line and "\n" not in line
+    xr.testing.assert_identical(opened(out), reference["grid"])
 
 
 def test_a_chunk_lost_on_the_cluster_names_it_and_the_run_resumes(tmp_path, monkeypatch,

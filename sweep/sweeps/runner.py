@@ -516,7 +516,15 @@ def _chunk_result(fut, index, start, stop):
                           f"Dask cluster: {type(exc).__name__}: {exc}") from exc
 
 
-def _dask_executor(plan, tasks, client):
+def _say_if_no_workers(client, log):
+    """A cluster without workers holds the submitted chunks until one joins (an adaptive
+    cluster starts its workers for them): say so, not wait in silence."""
+    if not client.scheduler_info().get("workers"):
+        log(f"dask: the scheduler at {client.scheduler.address} has no workers yet; the "
+            "chunks wait for one (interrupt to stop: finished chunks are kept)")
+
+
+def _dask_executor(plan, tasks, client, log):
     from distributed import as_completed
 
     # A bounded number of chunks in flight keeps memory bounded on both sides.
@@ -540,6 +548,7 @@ def _dask_executor(plan, tasks, client):
     for _ in range(window):
         if not submit_next():
             break
+    _say_if_no_workers(client, log)
     for fut in futures:
         index, start, stop, points = meta.pop(fut.key)
         arrays, seconds, caveats = _chunk_result(fut, index, start, stop)
@@ -1046,7 +1055,7 @@ def _stream_chunks(job, partial, done, behind, quiet, client):
                                 interval=job.progress_interval, stream=job.stream) as bar:
         tasks = _tasks(job, partial, done, behind, totals, bar)
         executor = (_local_executor(job.plan, tasks) if client is None
-                    else _dask_executor(job.plan, tasks, client))
+                    else _dask_executor(job.plan, tasks, client, job.log))
         for index, start, stop, points, arrays, kernel, caveats in executor:
             # A chunk's wall time runs from the end of the previous one's computation
             # (so its own saving and writing count towards the next chunk).
