@@ -238,6 +238,10 @@ def test_resume_with_another_configuration_is_refused(tmp_path, monkeypatch):
         m.setattr(runner, "source_sha256", lambda: "edited")
         with pytest.raises(store.ResumeError, match="different sweep source code"):
             run(GRID, out)
+    with monkeypatch.context() as m:   # same sweep, another numba
+        m.setattr(runner, "numerical_stack", lambda: "numba 0.0")
+        with pytest.raises(store.ResumeError, match="different numerical libraries"):
+            run(GRID, out)
     res = run(other, out, restart=True)
     assert res.resumed_chunks == 0 and res.computed_points == 80
     assert opened(out).sizes["gamma"] == 10
@@ -286,6 +290,20 @@ def test_dask_cluster_gives_the_local_results(tmp_path):
         assert raw.attrs["executor"] == f"dask distributed, scheduler {address}"
         assert "compile_time_s" not in raw.attrs and "numba_num_threads" not in raw.attrs
     xr.testing.assert_identical(opened(tmp_path / "local.nc"), opened(tmp_path / "dask.nc"))
+
+
+def test_a_dask_worker_under_other_numerical_libraries_is_refused(tmp_path, monkeypatch):
+    # Its chunks could differ in their last bits from this process's (another numba, or
+    # no libmvec on its machine), while the file records this process's libraries.
+    distributed = pytest.importorskip("distributed")
+    real = runner.source_sha256()
+    monkeypatch.setattr(runner, "_loaded_source", lambda: (real, "numba 0.0"))
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        with pytest.raises(runner.RunError, match="numba 0.0 there") as info:
+            run(DOE, tmp_path / "dask.nc", scheduler=cluster.scheduler_address)
+    assert runner.numerical_stack() + " here" in str(info.value)
+    assert not (tmp_path / "dask.nc").exists()
 
 
 CAVEAT_GRID = """

@@ -211,6 +211,7 @@ def test_partial_store_saves_loads_and_resumes(tmp_path):
     ("config_sha256", "def", "different configuration"),
     ("sweep_version", "9.9", "different sweep version"),
     ("sweep_source_sha256", "edited", "different sweep source code"),
+    ("numerical_stack", "numba 0.1", "different numerical libraries"),
     ("chunk_size", 5, "different chunk size"),
     ("variables", ["e_ord1"], "different stored variables"),
 ])

@@ -354,6 +354,8 @@ class PartialStore:
         "sweep_version": "sweep version",
         "sweep_source_sha256": ("sweep source code or data (the package was edited or "
                                 "reinstalled, or its error model rebuilt)"),
+        "numerical_stack": ("numerical libraries (numba, llvmlite, numpy, scipy or the "
+                            "vector math library were upgraded, or the run moved)"),
         "output": "output file name",
         "n_points": "number of design points",
         "chunk_size": "chunk size",

@@ -86,6 +86,7 @@ from sweep.sweeps import config as _config
 from sweep.sweeps import design as _design
 from sweep.sweeps import limits as _limits
 from sweep.sweeps import preflight as _preflight_mod
+from sweep.kernels import vmath as _vmath
 from sweep.sweeps import progress as _progress_mod
 
 __all__ = ["ComputePlan", "compute_chunk", "run", "run_in_memory", "RunResult", "RunError",
@@ -342,6 +343,26 @@ def source_sha256() -> str:
     return h.hexdigest()
 
 
+def numerical_stack() -> str:
+    """The libraries below sweep that its results depend on, to the last bit.
+
+    numba and llvmlite compile the kernels, numpy and scipy make the designs and tables,
+    and glibc's vector math library (its variant chosen per machine,
+    :data:`sweep.kernels.vmath.VARIANT`) takes the general exponents' logs and exps: a
+    chunk computed under other versions may differ in its last bits. Resuming, and a Dask
+    worker's chunks, therefore also require the same stack.
+
+    Returns
+    -------
+    str
+        ``"numba X, llvmlite X, numpy X, scipy X, libmvec VARIANT (glibc X)"``.
+    """
+    libc = " ".join(platform.libc_ver()) or "unknown C library"
+    return (f"numba {_version('numba')}, llvmlite {_version('llvmlite')}, numpy "
+            f"{np.__version__}, scipy {_version('scipy')}, libmvec "
+            f"{_vmath.VARIANT or 'unused'} ({libc})")
+
+
 def _integrator_attrs(plan):
     if not plan.integrate:
         return {"integrator": "not run (no requested output needs the numerical integration)"}
@@ -480,15 +501,16 @@ class WorkerMismatch(RuntimeError):
 
 @functools.lru_cache(maxsize=1)
 def _loaded_source():
-    """:func:`source_sha256` of this process, taken once, at its first chunk: a worker
-    imports the sweep's modules then (unpickling the task), so a sweep installed after
-    that is seen as another one. A worker that imported them earlier by another route
-    and had the package replaced before its first chunk is not caught."""
-    return source_sha256()
+    """:func:`source_sha256` and :func:`numerical_stack` of this process, taken once, at
+    its first chunk: a worker imports the sweep's modules then (unpickling the task), so a
+    sweep installed after that is seen as another one. A worker that imported them earlier
+    by another route and had the package replaced before its first chunk is not caught."""
+    return source_sha256(), numerical_stack()
 
 
 def _compute_on_worker(source, plan, *points):
-    """:func:`compute_chunk` on a Dask worker whose sweep has the hash ``source``.
+    """:func:`compute_chunk` on a Dask worker whose ``(source_sha256, numerical_stack)``
+    is ``source``.
 
     A worker imports its own sweep: one left with another version computed chunks with
     its code while the file recorded the hash of the process that wrote it (exit 0)."""
@@ -496,10 +518,11 @@ def _compute_on_worker(source, plan, *points):
     if here != source:
         from distributed import get_worker  # noqa: PLC0415 -- only on a worker
 
+        what = (f"source sha256 {here[0][:12]}... there, {source[0][:12]}... here"
+                if here[0] != source[0] else f"{here[1]} there, {source[1]} here")
         raise WorkerMismatch(
             f"the Dask worker {get_worker().address} runs another sweep than this process "
-            f"(source sha256 {here[:12]}... there, {source[:12]}... here); install the "
-            "same sweep on every worker")
+            f"({what}); install the same sweep and libraries on every worker")
     return compute_chunk(plan, *points)
 
 
@@ -533,7 +556,7 @@ def _dask_executor(plan, tasks, client, log):
     meta = {}
     token = uuid.uuid4().hex  # task keys unique to this run on a shared scheduler
     tasks = iter(tasks)
-    source = source_sha256()
+    source = source_sha256(), numerical_stack()
 
     def submit_next():
         for index, start, stop, points in tasks:
@@ -898,6 +921,7 @@ def _plan_chunks(job):
         "config_sha256": job.cfg.sha256,
         "sweep_version": __version__,
         "sweep_source_sha256": source_sha256(),
+        "numerical_stack": numerical_stack(),
         "output": job.output.name,
         "n_points": job.design.size,
         "chunk_size": job.chunk_size,
