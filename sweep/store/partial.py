@@ -93,8 +93,8 @@ def lock_path(output: str | os.PathLike) -> Path:
 
 
 def _short(value):
-    s = repr(value)
-    return s if len(s) <= 80 else s[:77] + "..."
+    s = repr(value)   # long enough for a whole numerical stack (sweeps.runner)
+    return s if len(s) <= 120 else s[:117] + "..."
 
 
 def _write_atomic(path, data_or_writer):
