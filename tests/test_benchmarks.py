@@ -225,3 +225,17 @@ def test_hp_audit_script_finds_no_violation_on_a_small_draw():
         # bounds the extended-precision reference's error at every setting.
         assert "'bound': 0, 'tol': 0, 'stick': 0, 'rebound': 0, 'nan': 0" in line, line
         assert float(line.rsplit("elsewhere ", 1)[1]) < 2.0, line
+
+
+def test_writer_script_writes_the_sobol_values_and_names_each_choice():
+    script = ROOT / "benchmarks" / "writer.py"
+    res = subprocess.run([sys.executable, str(script), "--n", "2048", "--repeat", "1"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    head, *rows = res.stdout.splitlines()
+    assert "s of CPU a million points" in head and "MB raw" in head, head
+    size, raw = (float(x.split(" MB")[0]) for x in head.split("file ")[1].split(" of "))
+    assert 0 < size < raw, head                  # the flags and coordinates deflate
+    how = dict(r.split(None, 1) for r in rows)
+    assert {"e_numeric", "alpha", "gtilde", "status"} <= set(how)
+    assert set(how.values()) <= {"stored", "deflate", "deflate + shuffle"}
