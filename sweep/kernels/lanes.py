@@ -55,7 +55,8 @@ from sweep.kernels.stepsize import StepPolicy, first_guess, policy
 __all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
 
 #: Points marched at once. 8: the stages of eight lanes fill the core's out-of-order window
-#: (KK stages: 74 ns a step for one point, about 25-30 ns a point for eight).
+#: (KK stages: 74 ns a step for one point, about 25-30 ns a point for eight). A multiple
+#: of four: general lanes take their powers four at a time (rk_step_lanes).
 LANES = 8
 #: Columns of an Ending stored in a row (:func:`ending_at`).
 N_ENDING = 9
@@ -79,7 +80,6 @@ class Lanes(NamedTuple):
     h: np.ndarray       # float64: the step about to be taken
     y: np.ndarray       # float64 (LANES, 5): its (u_new, w_new, dr), local errors of w, q
     K: np.ndarray       # float64 (LANES, N_STAGES, 3): each lane's stages
-    P: np.ndarray       # float64 (3, LANES): the stages' log and exps (rk_step_lanes)
 
 
 @intrinsic
@@ -107,7 +107,7 @@ def _borrowed(a):
 def _borrow(ln):
     b = _borrowed
     return Lanes(b(ln.point), b(ln.live), b(ln.LF), b(ln.LI), b(ln.CR), b(ln.SF), b(ln.SI),
-                 b(ln.u), b(ln.w), b(ln.h), b(ln.y), b(ln.K), b(ln.P))
+                 b(ln.u), b(ln.w), b(ln.h), b(ln.y), b(ln.K))
 
 
 @jit(inline="always")
@@ -121,7 +121,7 @@ def _lanes():
                  np.empty((LANES, LAW_COLUMNS[1]), np.int64),
                  np.empty((LANES, 7)), np.empty((LANES, 14)), np.empty((LANES, 6), np.int64),
                  np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((LANES, 5)),
-                 np.empty((LANES, N_STAGES, 3)), np.empty((3, LANES)))
+                 np.empty((LANES, N_STAGES, 3)))
 
 
 @jit(inline="always")
@@ -282,7 +282,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
                     _put_end(ends, ln.point[lane], out_of_budget(st, c))
                     ln.live[lane], idle = False, True
         if not idle:
-            rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y, ln.P)
+            rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y)
             _local_errors(ln)
             for lane in range(LANES):  # the rest of march()'s step
                 if ln.live[lane]:

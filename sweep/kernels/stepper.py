@@ -19,7 +19,7 @@ from sweep.kernels._jit import jit
 from sweep.kernels.contact import (general_arguments, general_at, rhs, rhs_at, rhs_called,
                                    rhs_general)
 from sweep.kernels.tableau import DORMAND_PRINCE_54
-from sweep.kernels.vmath import exp_row, log_row
+from sweep.kernels.vmath import exp4, log4
 
 __all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "rk_stage", "stage_point", "rk_combine",
            "local_error", "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
@@ -138,12 +138,12 @@ rk_step_inline = jit(inline="always")(_step_with(rhs))
 
 
 @jit(inline="always")
-def rk_step_lanes(u, w, h, K, LF, LI, live, y, P):
+def rk_step_lanes(u, w, h, K, LF, LI, live, y):
     """:func:`rk_step` for several points at once: lane ``l`` (where ``live[l]``) steps
     ``(u[l], w[l])`` by ``h[l]`` with the law in row ``l`` of ``LF, LI``
     (:func:`sweep.kernels.contact.rhs_at`), its stages in ``K[l]`` (``K[l, 0]`` = f at the
-    start on entry), its ``(u_new, w_new, dr)`` in ``y[l]``. ``P``: scratch, float64 (3,
-    lanes), C-contiguous.
+    start on entry), its ``(u_new, w_new, dr)`` in ``y[l]``; the number of lanes a multiple
+    of four (:func:`_general_stage`).
 
     Each stage is formed for every lane before the next: the lanes' chains of dependent
     operations (each stage waits on the power of u of the one before) overlap, where one
@@ -162,37 +162,73 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y, P):
                 else:
                     K[lane, i, 0], K[lane, i, 1], K[lane, i, 2] = rhs_at(ui, wi, LF, LI, lane)
         if pending:
-            _general_stage(i, K, LF, P, pending)
+            _general_stage(i, K, LF, pending)
     for lane in range(live.size):
         if live[lane]:
             y[lane, 0], y[lane, 1], y[lane, 2] = _combine_lane(u[lane], w[lane], h[lane], K,
                                                                lane)
 
 
+# Lanes whose powers go to the vector functions together: vmath's 4-tuples, built and
+# taken apart in registers.
+_GROUP = 4
+
+
 @jit(inline="always")
-def _general_stage(i, K, LF, P, pending):
+def _general_stage(i, K, LF, pending):
     """Stage ``i`` of the lanes whose bits are set in ``pending`` (general exponents, u > 0,
-    their stage point in ``K[lane, i, :2]``): the log and two exps of all lanes each in
-    one vector call (:mod:`sweep.kernels.vmath`; the other lanes take log 1), then their
-    forces, as :func:`sweep.kernels.contact.rhs` gives them. A vector without a pending
+    their stage point in ``K[lane, i, :2]``), :data:`_GROUP` lanes at a time
+    (:func:`_general_group`; ``K.shape[0]`` a multiple of it). A group without a pending
     lane is skipped: lanes of the report's models among general ones cost no calls."""
-    n = P.shape[1]
-    for lane in range(n):
-        P[0, lane] = K[lane, i, 0] if pending >> lane & 1 else 1.0
-    log_row(P, 0, pending)
-    for lane in range(n):
-        # The other lanes' laws may be stale rows (an infinite exponent would make a NaN,
-        # which libmvec takes the slow way).
-        if pending >> lane & 1:
-            P[1, lane], P[2, lane] = general_arguments(LF, lane, P[0, lane])
-        else:
-            P[1, lane], P[2, lane] = 0.0, 0.0
-    exp_row(P, 1, pending)
-    exp_row(P, 2, pending)
-    for lane in range(n):
-        if pending >> lane & 1:
-            K[lane, i, 0], K[lane, i, 1], K[lane, i, 2] = rhs_general(
-                K[lane, i, 0], K[lane, i, 1], LF, lane, P[1, lane], P[2, lane])
+    for first in range(0, K.shape[0], _GROUP):
+        bits = pending >> first & (1 << _GROUP) - 1
+        if bits:
+            _general_group(i, K, LF, bits, first)
+
+
+@jit(inline="always")
+def _general_group(i, K, LF, bits, first):
+    """:func:`_general_stage` for the lanes ``first + k`` whose bit ``k`` is set in
+    ``bits``: their log and two exps each in one vector call (:mod:`sweep.kernels.vmath`;
+    the other lanes take log 1 and exp 0), then their forces, as
+    :func:`sweep.kernels.contact.rhs` gives them. The arguments travel as tuples, in
+    registers: written to an array lane by lane and read back as one vector, each call's
+    arguments waited on a failed store-to-load forwarding (``perf``: 8% of the lanes' time
+    on the two stalls at the log's and the first exp's loads)."""
+    lu = log4((_u_or_one(K, i, bits, first, 0), _u_or_one(K, i, bits, first, 1),
+               _u_or_one(K, i, bits, first, 2), _u_or_one(K, i, bits, first, 3)))
+    a0 = _arguments_or_zero(LF, bits, first, 0, lu[0])
+    a1 = _arguments_or_zero(LF, bits, first, 1, lu[1])
+    a2 = _arguments_or_zero(LF, bits, first, 2, lu[2])
+    a3 = _arguments_or_zero(LF, bits, first, 3, lu[3])
+    pd = exp4((a0[0], a1[0], a2[0], a3[0]))
+    pa = exp4((a0[1], a1[1], a2[1], a3[1]))
+    _put_forces(i, K, LF, bits, first, 0, pd[0], pa[0])
+    _put_forces(i, K, LF, bits, first, 1, pd[1], pa[1])
+    _put_forces(i, K, LF, bits, first, 2, pd[2], pa[2])
+    _put_forces(i, K, LF, bits, first, 3, pd[3], pa[3])
+
+
+@jit(inline="always")
+def _u_or_one(K, i, bits, first, k):
+    return K[first + k, i, 0] if bits >> k & 1 else 1.0
+
+
+@jit(inline="always")
+def _arguments_or_zero(LF, bits, first, k, lu):
+    # The other lanes' laws may be stale rows (an infinite exponent would make a NaN,
+    # which libmvec takes the slow way).
+    if bits >> k & 1:
+        return general_arguments(LF, first + k, lu)
+    return 0.0, 0.0
+
+
+@jit(inline="always")
+def _put_forces(i, K, LF, bits, first, k, pd, pa):
+    if bits >> k & 1:
+        lane = first + k
+        K[lane, i, 0], K[lane, i, 1], K[lane, i, 2] = rhs_general(
+            K[lane, i, 0], K[lane, i, 1], LF, lane, pd, pa)
 
 
 @jit(inline="always")

@@ -7,8 +7,8 @@ compute :data:`WIDTH` of them in about the time of one scalar call.
 
 **The same bits for one lane and for many.** The one-point march evaluates its powers with
 :func:`log1` and :func:`exp1`, which put their argument in lane 0 of the same vector
-function that :func:`log_row` and :func:`exp_row` apply to the array kernels' lanes:
-vector math functions are elementwise, so a lane's result does not depend on what the
+function that :func:`log4` and :func:`exp4` apply to four of the array kernels' lanes
+(4-tuples, built and taken apart in registers): vector math functions are elementwise, so a lane's result does not depend on what the
 other lanes hold (``tests/test_vmath.py``), and the two marches stay bit-identical.
 
 **Where libmvec is not used.** The variant is chosen once, at import: AVX2 (4 doubles),
@@ -50,8 +50,7 @@ from numba.extending import intrinsic
 
 from sweep.kernels._jit import jit
 
-__all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log_row", "exp_row", "exp4", "expm1_4",
-           "sqrt_div4", "HAS"]
+__all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log4", "exp4", "expm1_4", "sqrt_div4", "HAS"]
 
 # libmvec's variants, in order of preference: (CPU feature, name letter of the x86_64
 # vector ABI, doubles per vector). AVX2 before AVX-512: on the AMD EPYC (Zen 4) where it was
@@ -88,8 +87,6 @@ def _name(letter: str, width: int, function: str) -> str:
 _LETTER, WIDTH = _variant()
 #: libmvec's symbol stem in use (e.g. ``_ZGVeN8v``), or "" where math's calls are used.
 VARIANT = _name(_LETTER, WIDTH, "")[:-1] if WIDTH else ""
-# Elements one call of _apply_at takes: a vector, or one scalar call.
-_STEP = WIDTH or 1
 #: The functions of this module that libmvec has in the variant in use (its expm1 came
 #: with glibc 2.35); the others are math's calls, element by element.
 HAS = frozenset(f for f in ("exp", "log", "expm1")
@@ -129,83 +126,22 @@ def _scalar_intrinsic(function):
     return of_lane0
 
 
-def _row_intrinsic(function):
-    """Intrinsic: ``P[r, k:k + _STEP] = function(P[r, k:k + _STEP])`` in place, for a
-    C-contiguous float64 ``P`` with at least ``k + _STEP`` columns (unchecked)."""
-
-    @intrinsic
-    def at(typingctx, P, r, k):
-        if not (isinstance(P, types.Array) and P.ndim == 2 and P.layout == "C"
-                and P.dtype == types.float64):
-            raise numba.core.errors.TypingError(f"a C-contiguous 2-D float64 array is "
-                                                f"needed, got {P}")
-        sig = types.void(P, types.intp, types.intp)
-
-        def codegen(context, builder, signature, args):
-            arr = context.make_array(signature.args[0])(context, builder, args[0])
-            ptr = cgutils.get_item_pointer(context, builder, signature.args[0], arr,
-                                           [args[1], args[2]])
-            if not WIDTH or not isinstance(context, CPUContext):
-                builder.store(_scalar_call(context, builder, function, builder.load(ptr)),
-                              ptr)
-            else:
-                vptr = builder.bitcast(ptr, ir.VectorType(ir.DoubleType(), WIDTH)
-                                       .as_pointer())
-                vector = builder.load(vptr, align=8)
-                builder.store(_vector_call(builder, function, vector), vptr, align=8)
-            return context.get_dummy_value()
-        return sig, codegen
-    return at
-
-
 _log_lane0, _exp_lane0 = _scalar_intrinsic("log"), _scalar_intrinsic("exp")
-_log_at, _exp_at = _row_intrinsic("log"), _row_intrinsic("exp")
 
 
 @jit(inline="always")
 def log1(x):
-    """Natural log of a float64, bit for bit as :func:`log_row` gives it for an element."""
+    """Natural log of a float64, bit for bit as :func:`log4` gives it for an element."""
     return _log_lane0(x)
 
 
 @jit(inline="always")
 def exp1(x):
-    """exp of a float64, bit for bit as :func:`exp_row` gives it for an element."""
+    """exp of a float64, bit for bit as :func:`exp4` gives it for an element."""
     return _exp_lane0(x)
 
 
-# Bits of a vector's columns in the mask of log_row and exp_row.
-_VECTOR_BITS = (1 << _STEP) - 1
-
-
-def _row_with(vector_at, scalar):
-    """:func:`log_row` or :func:`exp_row` from their intrinsics."""
-
-    def row(P, r, mask):
-        n = P.shape[1]
-        whole = n - n % _STEP
-        for k in range(0, whole, _STEP):
-            if mask >> k & _VECTOR_BITS:
-                vector_at(P, r, k)
-        # A rest of fewer columns than a vector: the scalar form (the same bits).
-        for k in range(whole, n):
-            if mask >> k & 1:
-                P[r, k] = scalar(P[r, k])
-
-    return row
-
-
-#: ``P[r, k] = log(P[r, k])`` in place for the columns ``k`` whose bit is set in ``mask``
-#: (an int; ``P``: C-contiguous 2-D float64, at most 63 columns), by vectors of
-#: :data:`WIDTH`: a vector holding one of them is computed whole, the others are left as
-#: they are. Arguments <= 0 or NaN cost a scalar call per vector inside libmvec: columns
-#: that need no log should hold 1.0.
-log_row = jit(inline="always")(_row_with(_log_at, _log_lane0))
-#: ``P[r, k] = exp(P[r, k])`` in place for the columns of ``mask``, as :func:`log_row`.
-exp_row = jit(inline="always")(_row_with(_exp_at, _exp_lane0))
-
-
-# Elements of the tuples of exp4 and expm1_4.
+# Elements of the tuples of log4, exp4 and expm1_4.
 _TUPLE = 4
 
 
@@ -243,6 +179,9 @@ def _tuple_intrinsic(function):
 #: ``(exp(x0), .., exp(x3))`` of a 4-tuple of float64, bit for bit as :func:`exp1` gives
 #: each (vector functions are elementwise).
 exp4 = _tuple_intrinsic("exp")
+#: ``(log(x0), .., log(x3))``, bit for bit as :func:`log1` gives each. Arguments <= 0 or
+#: NaN cost a scalar call inside libmvec: elements that need no log should hold 1.0.
+log4 = _tuple_intrinsic("log")
 #: ``expm1`` of each element of a 4-tuple of float64 (libmvec's where it has it).
 expm1_4 = _tuple_intrinsic("expm1")
 
