@@ -194,6 +194,63 @@ def test_a_called_helper_serves_kernels_and_python_through_a_twin():
     assert inlined(1.5) == 2.5
 
 
+class _Stacks(numba.core.event.Listener):
+    """Records, at the start of every compile, whether it runs under
+    :func:`_jit.on_own_chunk`'s frame."""
+
+    def __init__(self):
+        self.seen = []
+
+    def on_start(self, event):
+        frame, under = sys._getframe(), False
+        while frame is not None and not under:
+            under = frame.f_code is _jit._on_own_chunk.__code__
+            frame = frame.f_back
+        self.seen.append((event.data["dispatcher"].py_func.__name__, under))
+
+    def on_end(self, event):
+        pass
+
+
+@pytest.fixture()
+def stacks():
+    rec = _Stacks()
+    numba.core.event.register("numba:compile", rec)
+    yield rec
+    numba.core.event.unregister("numba:compile", rec)
+
+
+def test_compiles_started_from_python_run_on_a_chunk_of_their_own(stacks, tmp_path,
+                                                                   monkeypatch):
+    """A first call from Python compiles under a frame that claims OWN_CHUNK_SLOTS stack
+    slots, and what it compiles under it too; the results are the function's."""
+    def half(x):
+        return 0.5 * x
+
+    def twice(x):
+        return helper(x) * 4.0
+
+    helper = _jit.jit()(half)
+    entry = _jit.jit(entry=True)(twice)
+    inlined = _jit.jit(inline="always")(half)
+    monkeypatch.setattr(_jit, "cache_dir", lambda: tmp_path)
+    cached = _jit.cached_jit()(twice)
+    assert entry(3.0) == 6.0 and inlined(3.0) == 1.5 and cached(1.0) == 2.0
+    assert helper(3.0) == 1.5          # its Python twin
+    assert stacks.seen == [("twice", True), ("half", True), ("half", True),
+                           ("twice", True), ("half", True)]
+    assert _jit._on_own_chunk.__code__.co_stacksize == _jit.OWN_CHUNK_SLOTS
+    # Other code's dispatchers compile where they are called.
+    assert numba.njit(half)(2.0) == 1.0 and stacks.seen[-1] == ("half", False)
+
+
+def test_on_own_chunk_passes_arguments_and_errors_through():
+    assert _jit.on_own_chunk(divmod, 7, 2) == (3, 1)
+    assert _jit.on_own_chunk(int, "ff", base=16) == 255
+    with pytest.raises(ZeroDivisionError):
+        _jit.on_own_chunk(divmod, 1, 0)
+
+
 def test_the_inliner_copies_a_package_callee_with_one_memo(monkeypatch):
     """While a package kernel compiles, numba's inliner copies each callee with one memo
     (``_jit._share_inline_copies``): the blocks of the copy share one copy of the scope, as

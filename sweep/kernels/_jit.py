@@ -20,7 +20,8 @@ built for the call site without copying it (:func:`_skip_fresh_copies`) and copi
 callees with one memo for all their blocks (:func:`_share_inline_copies`), and a helper
 that only kernels call gets no machine code of its own (:func:`_leave_helpers_unemitted`).
 Each of these patches of numba's internals applies to the numba release and sources it was
-written for only (:data:`PATCHED_NUMBA`).
+written for only (:data:`PATCHED_NUMBA`). A compile that a call from Python starts runs
+under a frame with a chunk of CPython's frame stack to itself (:func:`on_own_chunk`).
 
 Owns: the kernel cache location and the compile-time settings. May import: nothing from
 ``sweep``.
@@ -36,6 +37,7 @@ import hashlib
 import inspect
 import os
 import threading
+import types
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -44,8 +46,9 @@ from numba.core import event as _event
 from numba.core.registry import CPUDispatcher
 
 __all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "package_imports",
-           "jit", "cached_jit", "FLAGS", "COMPILE_GC_THRESHOLDS", "PATCHED_NUMBA",
-           "INLINE_IR_SOURCES", "INLINE_FUNCTION_SOURCES", "EXECUTABLE_SOURCES"]
+           "jit", "cached_jit", "on_own_chunk", "FLAGS", "COMPILE_GC_THRESHOLDS",
+           "PATCHED_NUMBA", "INLINE_IR_SOURCES", "INLINE_FUNCTION_SOURCES",
+           "EXECUTABLE_SOURCES", "OWN_CHUNK_SLOTS"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 _PACKAGE = _PACKAGE_DIR.name
@@ -196,7 +199,7 @@ def jit(entry: bool = False, **options):
     until Python calls them.
     """
     if entry or options.get("inline") == "always":
-        return numba.njit(**FLAGS, **options)
+        return lambda fn: _entry(numba.njit(**FLAGS, **options)(fn))
 
     def wrap(fn):
         dispatcher = numba.njit(no_cpython_wrapper=True, no_cfunc_wrapper=True, **FLAGS,
@@ -221,7 +224,7 @@ class _KernelOnly(CPUDispatcher):
         twin = self.__dict__.get("_python_twin")
         if twin is None:
             options = {k: v for k, v in self.targetoptions.items() if k not in _WRAPPERLESS}
-            twin = self._python_twin = numba.njit(**options)(self.py_func)
+            twin = self._python_twin = _entry(numba.njit(**options)(self.py_func))
         return twin(*args, **kwargs)
 
 
@@ -234,8 +237,53 @@ def cached_jit(**options):
     """
     def wrap(fn):
         with kernel_cache():
-            return numba.njit(cache=True, **FLAGS, **options)(fn)
+            return _entry(numba.njit(cache=True, **FLAGS, **options)(fn))
     return wrap
+
+
+#: Stack slots that the frame of :func:`on_own_chunk` claims: 512 KiB, which CPython serves
+#: with a frame-stack chunk of 1 MiB, the other half left for the compile's frames (the
+#: first calls of every method, ``benchmarks/run_all.py``'s start-up figure, then map 380
+#: chunks of 16 KiB in all, where the first ``sweep.cor()`` alone mapped 224,000).
+OWN_CHUNK_SLOTS = 1 << 16
+
+
+def _call(fn, args, kwargs):
+    return fn(*args, **kwargs)
+
+
+#: ``fn(*args, **kwargs)`` under a frame that claims :data:`OWN_CHUNK_SLOTS`.
+_on_own_chunk = types.FunctionType(
+    _call.__code__.replace(co_stacksize=OWN_CHUNK_SLOTS, co_name="_on_own_chunk"),
+    globals(), "_on_own_chunk")
+
+
+def on_own_chunk(fn, *args, **kwargs):
+    """``fn(*args, **kwargs)``, its frames on a chunk of CPython's frame stack of their own.
+
+    CPython 3.11 keeps a thread's Python frames in chunks of 16 KiB, each mapped (mmap) when
+    a frame no longer fits in the last one and unmapped as soon as the frame at its start
+    returns. numba's compiler calls in and out of that depth all the time: the first
+    ``sweep.cor()`` mapped and unmapped 224,000 chunks, 2.0 s of system time of a 15.6 s
+    compile (one core, empty cache). Called through a frame of :data:`OWN_CHUNK_SLOTS`
+    slots, which opens a chunk of 1 MiB, the compile's frames stay in that chunk: 340
+    chunks mapped, 13.5 s (docs/speed/history.md). (Python before 3.11 gives the frame a
+    512 KiB value stack of its own, once a call.)
+    """
+    return _on_own_chunk(fn, args, kwargs)
+
+
+class _Entry(CPUDispatcher):
+    """A dispatcher that Python calls: the compiles those calls start (a signature not seen
+    yet, the kernels it calls with it) run :func:`on_own_chunk`."""
+
+    def _compile_for_args(self, *args, **kws):
+        return _on_own_chunk(super()._compile_for_args, args, kws)
+
+
+def _entry(dispatcher):
+    dispatcher.__class__ = _Entry
+    return dispatcher
 
 
 #: Cyclic-GC thresholds while a kernel of this package compiles: a young-generation
