@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numba
 import numba.core.event
+import numpy as np
 import pytest
 
 import sweep
@@ -345,12 +346,47 @@ def test_a_called_helper_is_compiled_without_machine_code_of_its_own():
     assert engine.is_symbol_defined(plain.fndesc.llvm_func_name)
 
 
+def test_scalar_operators_skip_numpy_s_ufunc_loops(monkeypatch):
+    """While a package kernel compiles, numba's array-operator template declines scalar
+    operands without matching ufunc loops (``_jit._scalar_operators_skip_ufuncs``); an
+    operation on an array types as before, and other code's compiles are numba's own."""
+    from numba.core.typing import npydecl
+
+    generic = npydecl.NumpyRulesArrayOperator.generic
+    if not _jit._known([getattr(generic, "__wrapped__", generic)],
+                       _jit.ARRAY_OPERATOR_SOURCES, numba.__version__):
+        pytest.skip("numba's operator typing is not one ARRAY_OPERATOR_SOURCES knows")
+    matched = []
+    plain = npydecl.ufunc_find_matching_loop
+
+    def counted(ufunc, arg_types):
+        matched.append(ufunc.__name__)
+        return plain(ufunc, arg_types)
+
+    monkeypatch.setattr(npydecl, "ufunc_find_matching_loop", counted)
+
+    def scalars(x, y):
+        return x * y + x - (y < x)
+
+    def arrays(a, x):
+        return (a * x + 1.0)[1]
+
+    assert _as_if_in("sweep.kernels.fake", scalars)(2.0, 3.0) == 8.0
+    assert matched == []
+    assert _as_if_in("sweep.kernels.fake", arrays)(np.arange(3.0), 2.0) == 3.0
+    assert matched[:2] == ["multiply", "add"]
+    del matched[:]
+    assert _as_if_in("elsewhere", scalars)(2.0, 3.0) == 8.0
+    assert "multiply" in matched
+
+
 @pytest.mark.parametrize("release", ["0.68.0", "0.69.0"])
 def test_the_numba_patches_keep_out_of_other_releases(release):
     """Each patch of numba's internals applies to the sources and release it was written
     for, and to no other: on another release the class is left as it was."""
     from numba.core import cpu
     from numba.core import inline_closurecall as icc
+    from numba.core.typing import npydecl
 
     def unwrapped(fn):
         return getattr(fn, "__wrapped__", fn)
@@ -359,13 +395,18 @@ def test_the_numba_patches_keep_out_of_other_releases(release):
                                  unwrapped(icc.InlineWorker.inline_function)})
     context = type("Context", (), {"get_executable":
                                    unwrapped(cpu.CPUContext.get_executable)})
+    template = type("Template", (), {"generic":
+                                     unwrapped(npydecl.NumpyRulesArrayOperator.generic)})
     assert not _jit._mark_fresh_callees(worker, release)
     assert not _jit._unemitted_helpers_in(context, release)
+    assert not _jit._declining_scalars_in(template, release)
     assert "__wrapped__" not in vars(worker)["inline_function"].__dict__
     assert "__wrapped__" not in vars(context)["get_executable"].__dict__
+    assert "__wrapped__" not in vars(template)["generic"].__dict__
     if numba.__version__ in _jit.PATCHED_NUMBA:
         assert _jit._mark_fresh_callees(worker, numba.__version__)
         assert _jit._unemitted_helpers_in(context, numba.__version__)
+        assert _jit._declining_scalars_in(template, numba.__version__)
         assert vars(worker)["inline_function"].__wrapped__ is unwrapped(
             icc.InlineWorker.inline_function)
 
