@@ -17,12 +17,13 @@ with relaxed thresholds (:data:`COMPILE_GC_THRESHOLDS`, through numba's public
 ``numba:compile`` event): a compile allocates millions of objects, and the collections they
 triggered took a tenth of the first compile. Meanwhile numba's inliner splices in the IR it
 built for the call site without copying it (:func:`_skip_fresh_copies`) and copies other
-callees with one memo for all their blocks (:func:`_share_inline_copies`), and a helper
-that only kernels call gets no machine code of its own (:func:`_leave_helpers_unemitted`),
-and an arithmetic operator on scalars is not matched against numpy's ufunc loops first
-(:func:`_scalar_operators_skip_ufuncs`). Each of these patches of numba's internals applies to the numba release and sources it was
-written for only (:data:`PATCHED_NUMBA`). A compile that a call from Python starts runs
-under a frame with a chunk of CPython's frame stack to itself (:func:`on_own_chunk`).
+callees with one memo for all their blocks (:func:`_share_inline_copies`); a helper that
+only kernels call gets no machine code of its own (:func:`_leave_helpers_unemitted`); an
+operator on scalars is not matched against numpy's ufunc loops first
+(:func:`_scalar_operators_skip_ufuncs`). Each of these patches of numba's internals applies
+to the numba release and sources it was written for only (:data:`PATCHED_NUMBA`). A compile
+that a call from Python starts runs under a frame with a chunk of CPython's frame stack to
+itself (:func:`on_own_chunk`).
 
 Owns: the kernel cache location and the compile-time settings. May import: nothing from
 ``sweep``.
