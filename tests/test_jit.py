@@ -380,6 +380,40 @@ def test_scalar_operators_skip_numpy_s_ufunc_loops(monkeypatch):
     assert "multiply" in matched
 
 
+def test_compile_flags_hash_and_compare_as_numba_s_own(monkeypatch):
+    """While a package kernel compiles, compile flags hash to numba's own value and compare
+    as numba's ``values()`` do, without building them through the options' properties
+    (``_jit._quick_flag_comparisons``); outside, numba's own methods run."""
+    from numba.core import cpu, targetconfig
+    from numba.core.compiler import Flags
+
+    config = targetconfig.TargetConfig
+    plain_hash = getattr(config.__hash__, "__wrapped__", config.__hash__)
+    plain_eq = getattr(config.__eq__, "__wrapped__", config.__eq__)
+    if not _jit._known([plain_hash, plain_eq, config.values, type(config).__init__],
+                       _jit.TARGET_CONFIG_SOURCES, numba.__version__):
+        pytest.skip("numba's TargetConfig is not one TARGET_CONFIG_SOURCES knows")
+    assert _as_if_in("sweep.kernels.fake", lambda x, y: min(x, y))(2.0, 3.0) == 2.0
+    assert config.__hash__.__wrapped__ is plain_hash and config.__eq__.__wrapped__ is plain_eq
+
+    a, b, c = Flags(), Flags(), Flags()
+    for f in (a, b):
+        f.nrt, f.error_model, f.fastmath = True, "numpy", cpu.FastMathOptions({"contract"})
+    c.nrt = True
+    d = Flags(c)
+    d._values["not_an_option"] = 1        # numba's values() leave it out
+    hashes = [plain_hash(f) for f in (a, c, d)]
+    built = []
+    monkeypatch.setattr(config, "values", lambda self: built.append(self) or
+                        {k: getattr(self, k) for k in self.options})
+    monkeypatch.setattr(_jit._COLLECTOR, "_nest", [None])     # as in a package compile
+    assert [hash(f) for f in (a, c, d)] == hashes
+    assert (a == b, a == c, c == d, a == 1) == (True, False, True, False)
+    assert built == [d]
+    monkeypatch.setattr(_jit._COLLECTOR, "_nest", [])
+    assert a == b and not a == c and built[1:] == [a, b, a, c]
+
+
 @pytest.mark.parametrize("release", ["0.68.0", "0.69.0"])
 def test_the_numba_patches_keep_out_of_other_releases(release):
     """Each patch of numba's internals applies to the sources and release it was written
@@ -403,6 +437,9 @@ def test_the_numba_patches_keep_out_of_other_releases(release):
     assert "__wrapped__" not in vars(worker)["inline_function"].__dict__
     assert "__wrapped__" not in vars(context)["get_executable"].__dict__
     assert "__wrapped__" not in vars(template)["generic"].__dict__
+    config = type("Config", (), {"__hash__": lambda self: 0, "__eq__": lambda self, o: True})
+    assert not _jit._quick_comparisons_in(config, [], release)
+    assert vars(config)["__hash__"](None) == 0 and "__wrapped__" not in vars(config)
     if numba.__version__ in _jit.PATCHED_NUMBA:
         assert _jit._mark_fresh_callees(worker, numba.__version__)
         assert _jit._unemitted_helpers_in(context, numba.__version__)

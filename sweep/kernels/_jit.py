@@ -20,7 +20,8 @@ built for the call site without copying it (:func:`_skip_fresh_copies`) and copi
 callees with one memo for all their blocks (:func:`_share_inline_copies`); a helper that
 only kernels call gets no machine code of its own (:func:`_leave_helpers_unemitted`); an
 operator on scalars is not matched against numpy's ufunc loops first
-(:func:`_scalar_operators_skip_ufuncs`). Each of these patches of numba's internals applies
+(:func:`_scalar_operators_skip_ufuncs`); compile flags hash and compare faster
+(:func:`_quick_flag_comparisons`). Each of these patches of numba's internals applies
 to the numba release and sources it was written for only (:data:`PATCHED_NUMBA`). A compile
 that a call from Python starts runs under a frame with a chunk of CPython's frame stack to
 itself (:func:`on_own_chunk`).
@@ -50,7 +51,8 @@ from numba.core.registry import CPUDispatcher
 __all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "package_imports",
            "jit", "cached_jit", "on_own_chunk", "FLAGS", "COMPILE_GC_THRESHOLDS",
            "PATCHED_NUMBA", "INLINE_IR_SOURCES", "INLINE_FUNCTION_SOURCES",
-           "EXECUTABLE_SOURCES", "ARRAY_OPERATOR_SOURCES", "OWN_CHUNK_SLOTS"]
+           "EXECUTABLE_SOURCES", "ARRAY_OPERATOR_SOURCES", "TARGET_CONFIG_SOURCES",
+           "OWN_CHUNK_SLOTS"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 _PACKAGE = _PACKAGE_DIR.name
@@ -365,6 +367,11 @@ EXECUTABLE_SOURCES = frozenset({"3892c8a654a2ca69", "4b4c34b83488a72f", "95bbf4f
 #: Sources of ``NumpyRulesArrayOperator.generic`` (numba 0.68.1's) that
 #: :func:`_scalar_operators_skip_ufuncs` lets decline scalar operands at once.
 ARRAY_OPERATOR_SOURCES = frozenset({"4647f17d50ba1ade"})
+#: Sources of ``TargetConfig.__hash__``, ``__eq__``, ``values`` and of the metaclass that
+#: makes the options' properties (numba 0.68.1's), which :func:`_quick_flag_comparisons`
+#: replaces with what they compute, computed faster.
+TARGET_CONFIG_SOURCES = frozenset({"4d15a6c75137a983", "6d8774572d07d381", "12a29dc810f6a91b",
+                                   "f2ff91c25728a971"})
 
 
 def _known(functions, sources, version) -> bool:
@@ -390,6 +397,7 @@ def _patch_numba() -> None:
     _skip_fresh_copies()
     _leave_helpers_unemitted()
     _scalar_operators_skip_ufuncs()
+    _quick_flag_comparisons()
 
 
 class _OneMemo:
@@ -596,3 +604,64 @@ def _declining_scalars_in(template, version) -> bool:
         return plain(self, args, kws)
     template.generic = generic
     return True
+
+
+@functools.cache
+def _quick_flag_comparisons() -> bool:
+    """Let numba's compile flags hash and compare as they do, faster, while one of this
+    package's dispatchers compiles; True where they do.
+
+    numba's typing templates of overloaded functions key their cache on the flags of the
+    compile: 32,000 hashes and 26,000 comparisons in the first ``sweep.cor()``, each
+    building the dict of every option through its property (3.5 us; 0.3-0.4 s in all).
+    The hash is numba's own value (that of the sorted option names: numba's hash sorts the
+    dict's keys), computed once per class; a comparison compares the same dicts, built
+    from the defaults and the options set.
+    """
+    from numba.core import targetconfig                   # noqa: PLC0415 -- numba internals
+
+    config = targetconfig.TargetConfig
+    sources = [config.__hash__, config.__eq__, config.values,
+               type(config).__init__]
+    return _quick_comparisons_in(config, sources, numba.__version__)
+
+
+def _quick_comparisons_in(config, sources, version) -> bool:
+    """Replace ``config.__hash__`` and ``__eq__`` (:func:`_quick_flag_comparisons`) where
+    ``sources`` are those of :data:`TARGET_CONFIG_SOURCES` under ``version``."""
+    plain_hash, plain_eq = config.__hash__, config.__eq__
+    if not _known(sources, TARGET_CONFIG_SOURCES, version):
+        return False
+
+    @functools.wraps(plain_hash)
+    def __hash__(self):
+        if _COLLECTOR.depth == 0:
+            return plain_hash(self)
+        return _names_hash(type(self))
+
+    @functools.wraps(plain_eq)
+    def __eq__(self, other):
+        if _COLLECTOR.depth == 0 or not isinstance(other, config):
+            return plain_eq(self, other)
+        return _option_values(self) == _option_values(other)
+    config.__hash__, config.__eq__ = __hash__, __eq__
+    return True
+
+
+@functools.cache
+def _names_hash(cls) -> int:
+    return hash(tuple(sorted(cls.options)))
+
+
+@functools.cache
+def _defaults(cls) -> dict:
+    return {name: option.default for name, option in cls.options.items()}
+
+
+def _option_values(config) -> dict:
+    """``config.values()``: the defaults, overridden by the options set (numba's own
+    ``values()`` where something not an option of the class was set)."""
+    defaults = _defaults(type(config))
+    if not config._values.keys() <= defaults.keys():
+        return config.values()
+    return {**defaults, **config._values}
