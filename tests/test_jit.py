@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numba
 import numba.core.event
+import numpy as np
 import pytest
 
 import sweep
@@ -194,6 +195,63 @@ def test_a_called_helper_serves_kernels_and_python_through_a_twin():
     assert inlined(1.5) == 2.5
 
 
+class _Stacks(numba.core.event.Listener):
+    """Records, at the start of every compile, whether it runs under
+    :func:`_jit.on_own_chunk`'s frame."""
+
+    def __init__(self):
+        self.seen = []
+
+    def on_start(self, event):
+        frame, under = sys._getframe(), False
+        while frame is not None and not under:
+            under = frame.f_code is _jit._on_own_chunk.__code__
+            frame = frame.f_back
+        self.seen.append((event.data["dispatcher"].py_func.__name__, under))
+
+    def on_end(self, event):
+        pass
+
+
+@pytest.fixture()
+def stacks():
+    rec = _Stacks()
+    numba.core.event.register("numba:compile", rec)
+    yield rec
+    numba.core.event.unregister("numba:compile", rec)
+
+
+def test_compiles_started_from_python_run_on_a_chunk_of_their_own(stacks, tmp_path,
+                                                                   monkeypatch):
+    """A first call from Python compiles under a frame that claims OWN_CHUNK_SLOTS stack
+    slots, and what it compiles under it too; the results are the function's."""
+    def half(x):
+        return 0.5 * x
+
+    def twice(x):
+        return helper(x) * 4.0
+
+    helper = _jit.jit()(half)
+    entry = _jit.jit(entry=True)(twice)
+    inlined = _jit.jit(inline="always")(half)
+    monkeypatch.setattr(_jit, "cache_dir", lambda: tmp_path)
+    cached = _jit.cached_jit()(twice)
+    assert entry(3.0) == 6.0 and inlined(3.0) == 1.5 and cached(1.0) == 2.0
+    assert helper(3.0) == 1.5          # its Python twin
+    assert stacks.seen == [("twice", True), ("half", True), ("half", True),
+                           ("twice", True), ("half", True)]
+    assert _jit._on_own_chunk.__code__.co_stacksize == _jit.OWN_CHUNK_SLOTS
+    # Other code's dispatchers compile where they are called.
+    assert numba.njit(half)(2.0) == 1.0 and stacks.seen[-1] == ("half", False)
+
+
+def test_on_own_chunk_passes_arguments_and_errors_through():
+    assert _jit.on_own_chunk(divmod, 7, 2) == (3, 1)
+    assert _jit.on_own_chunk(int, "ff", base=16) == 255
+    with pytest.raises(ZeroDivisionError):
+        _jit.on_own_chunk(divmod, 1, 0)
+
+
 def test_the_inliner_copies_a_package_callee_with_one_memo(monkeypatch):
     """While a package kernel compiles, numba's inliner copies each callee with one memo
     (``_jit._share_inline_copies``): the blocks of the copy share one copy of the scope, as
@@ -288,12 +346,81 @@ def test_a_called_helper_is_compiled_without_machine_code_of_its_own():
     assert engine.is_symbol_defined(plain.fndesc.llvm_func_name)
 
 
+def test_scalar_operators_skip_numpy_s_ufunc_loops(monkeypatch):
+    """While a package kernel compiles, numba's array-operator template declines scalar
+    operands without matching ufunc loops (``_jit._scalar_operators_skip_ufuncs``); an
+    operation on an array types as before, and other code's compiles are numba's own."""
+    from numba.core.typing import npydecl
+
+    generic = npydecl.NumpyRulesArrayOperator.generic
+    if not _jit._known([getattr(generic, "__wrapped__", generic)],
+                       _jit.ARRAY_OPERATOR_SOURCES, numba.__version__):
+        pytest.skip("numba's operator typing is not one ARRAY_OPERATOR_SOURCES knows")
+    matched = []
+    plain = npydecl.ufunc_find_matching_loop
+
+    def counted(ufunc, arg_types):
+        matched.append(ufunc.__name__)
+        return plain(ufunc, arg_types)
+
+    monkeypatch.setattr(npydecl, "ufunc_find_matching_loop", counted)
+
+    def scalars(x, y):
+        return x * y + x - (y < x)
+
+    def arrays(a, x):
+        return (a * x + 1.0)[1]
+
+    assert _as_if_in("sweep.kernels.fake", scalars)(2.0, 3.0) == 8.0
+    assert matched == []
+    assert _as_if_in("sweep.kernels.fake", arrays)(np.arange(3.0), 2.0) == 3.0
+    assert matched[:2] == ["multiply", "add"]
+    del matched[:]
+    assert _as_if_in("elsewhere", scalars)(2.0, 3.0) == 8.0
+    assert "multiply" in matched
+
+
+def test_compile_flags_hash_and_compare_as_numba_s_own(monkeypatch):
+    """While a package kernel compiles, compile flags hash to numba's own value and compare
+    as numba's ``values()`` do, without building them through the options' properties
+    (``_jit._quick_flag_comparisons``); outside, numba's own methods run."""
+    from numba.core import cpu, targetconfig
+    from numba.core.compiler import Flags
+
+    config = targetconfig.TargetConfig
+    plain_hash = getattr(config.__hash__, "__wrapped__", config.__hash__)
+    plain_eq = getattr(config.__eq__, "__wrapped__", config.__eq__)
+    if not _jit._known([plain_hash, plain_eq, config.values, type(config).__init__],
+                       _jit.TARGET_CONFIG_SOURCES, numba.__version__):
+        pytest.skip("numba's TargetConfig is not one TARGET_CONFIG_SOURCES knows")
+    assert _as_if_in("sweep.kernels.fake", lambda x, y: min(x, y))(2.0, 3.0) == 2.0
+    assert config.__hash__.__wrapped__ is plain_hash and config.__eq__.__wrapped__ is plain_eq
+
+    a, b, c = Flags(), Flags(), Flags()
+    for f in (a, b):
+        f.nrt, f.error_model, f.fastmath = True, "numpy", cpu.FastMathOptions({"contract"})
+    c.nrt = True
+    d = Flags(c)
+    d._values["not_an_option"] = 1        # numba's values() leave it out
+    hashes = [plain_hash(f) for f in (a, c, d)]
+    built = []
+    monkeypatch.setattr(config, "values", lambda self: built.append(self) or
+                        {k: getattr(self, k) for k in self.options})
+    monkeypatch.setattr(_jit._COLLECTOR, "_nest", [None])     # as in a package compile
+    assert [hash(f) for f in (a, c, d)] == hashes
+    assert (a == b, a == c, c == d, a == 1) == (True, False, True, False)
+    assert built == [d]
+    monkeypatch.setattr(_jit._COLLECTOR, "_nest", [])
+    assert a == b and not a == c and built[1:] == [a, b, a, c]
+
+
 @pytest.mark.parametrize("release", ["0.68.0", "0.69.0"])
 def test_the_numba_patches_keep_out_of_other_releases(release):
     """Each patch of numba's internals applies to the sources and release it was written
     for, and to no other: on another release the class is left as it was."""
     from numba.core import cpu
     from numba.core import inline_closurecall as icc
+    from numba.core.typing import npydecl
 
     def unwrapped(fn):
         return getattr(fn, "__wrapped__", fn)
@@ -302,13 +429,21 @@ def test_the_numba_patches_keep_out_of_other_releases(release):
                                  unwrapped(icc.InlineWorker.inline_function)})
     context = type("Context", (), {"get_executable":
                                    unwrapped(cpu.CPUContext.get_executable)})
+    template = type("Template", (), {"generic":
+                                     unwrapped(npydecl.NumpyRulesArrayOperator.generic)})
     assert not _jit._mark_fresh_callees(worker, release)
     assert not _jit._unemitted_helpers_in(context, release)
+    assert not _jit._declining_scalars_in(template, release)
     assert "__wrapped__" not in vars(worker)["inline_function"].__dict__
     assert "__wrapped__" not in vars(context)["get_executable"].__dict__
+    assert "__wrapped__" not in vars(template)["generic"].__dict__
+    config = type("Config", (), {"__hash__": lambda self: 0, "__eq__": lambda self, o: True})
+    assert not _jit._quick_comparisons_in(config, [], release)
+    assert vars(config)["__hash__"](None) == 0 and "__wrapped__" not in vars(config)
     if numba.__version__ in _jit.PATCHED_NUMBA:
         assert _jit._mark_fresh_callees(worker, numba.__version__)
         assert _jit._unemitted_helpers_in(context, numba.__version__)
+        assert _jit._declining_scalars_in(template, numba.__version__)
         assert vars(worker)["inline_function"].__wrapped__ is unwrapped(
             icc.InlineWorker.inline_function)
 

@@ -17,10 +17,14 @@ with relaxed thresholds (:data:`COMPILE_GC_THRESHOLDS`, through numba's public
 ``numba:compile`` event): a compile allocates millions of objects, and the collections they
 triggered took a tenth of the first compile. Meanwhile numba's inliner splices in the IR it
 built for the call site without copying it (:func:`_skip_fresh_copies`) and copies other
-callees with one memo for all their blocks (:func:`_share_inline_copies`), and a helper
-that only kernels call gets no machine code of its own (:func:`_leave_helpers_unemitted`).
-Each of these patches of numba's internals applies to the numba release and sources it was
-written for only (:data:`PATCHED_NUMBA`).
+callees with one memo for all their blocks (:func:`_share_inline_copies`); a helper that
+only kernels call gets no machine code of its own (:func:`_leave_helpers_unemitted`); an
+operator on scalars is not matched against numpy's ufunc loops first
+(:func:`_scalar_operators_skip_ufuncs`); compile flags hash and compare faster
+(:func:`_quick_flag_comparisons`). Each of these patches of numba's internals applies
+to the numba release and sources it was written for only (:data:`PATCHED_NUMBA`). A compile
+that a call from Python starts runs under a frame with a chunk of CPython's frame stack to
+itself (:func:`on_own_chunk`).
 
 Owns: the kernel cache location and the compile-time settings. May import: nothing from
 ``sweep``.
@@ -36,6 +40,7 @@ import hashlib
 import inspect
 import os
 import threading
+import types
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -44,8 +49,10 @@ from numba.core import event as _event
 from numba.core.registry import CPUDispatcher
 
 __all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "package_imports",
-           "jit", "cached_jit", "FLAGS", "COMPILE_GC_THRESHOLDS", "PATCHED_NUMBA",
-           "INLINE_IR_SOURCES", "INLINE_FUNCTION_SOURCES", "EXECUTABLE_SOURCES"]
+           "jit", "cached_jit", "on_own_chunk", "FLAGS", "COMPILE_GC_THRESHOLDS",
+           "PATCHED_NUMBA", "INLINE_IR_SOURCES", "INLINE_FUNCTION_SOURCES",
+           "EXECUTABLE_SOURCES", "ARRAY_OPERATOR_SOURCES", "TARGET_CONFIG_SOURCES",
+           "OWN_CHUNK_SLOTS"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 _PACKAGE = _PACKAGE_DIR.name
@@ -196,7 +203,7 @@ def jit(entry: bool = False, **options):
     until Python calls them.
     """
     if entry or options.get("inline") == "always":
-        return numba.njit(**FLAGS, **options)
+        return lambda fn: _entry(numba.njit(**FLAGS, **options)(fn))
 
     def wrap(fn):
         dispatcher = numba.njit(no_cpython_wrapper=True, no_cfunc_wrapper=True, **FLAGS,
@@ -221,7 +228,7 @@ class _KernelOnly(CPUDispatcher):
         twin = self.__dict__.get("_python_twin")
         if twin is None:
             options = {k: v for k, v in self.targetoptions.items() if k not in _WRAPPERLESS}
-            twin = self._python_twin = numba.njit(**options)(self.py_func)
+            twin = self._python_twin = _entry(numba.njit(**options)(self.py_func))
         return twin(*args, **kwargs)
 
 
@@ -234,8 +241,53 @@ def cached_jit(**options):
     """
     def wrap(fn):
         with kernel_cache():
-            return numba.njit(cache=True, **FLAGS, **options)(fn)
+            return _entry(numba.njit(cache=True, **FLAGS, **options)(fn))
     return wrap
+
+
+#: Stack slots that the frame of :func:`on_own_chunk` claims: 512 KiB, which CPython serves
+#: with a frame-stack chunk of 1 MiB, the other half left for the compile's frames (the
+#: first calls of every method, ``benchmarks/run_all.py``'s start-up figure, then map 380
+#: chunks of 16 KiB in all, where the first ``sweep.cor()`` alone mapped 224,000).
+OWN_CHUNK_SLOTS = 1 << 16
+
+
+def _call(fn, args, kwargs):
+    return fn(*args, **kwargs)
+
+
+#: ``fn(*args, **kwargs)`` under a frame that claims :data:`OWN_CHUNK_SLOTS`.
+_on_own_chunk = types.FunctionType(
+    _call.__code__.replace(co_stacksize=OWN_CHUNK_SLOTS, co_name="_on_own_chunk"),
+    globals(), "_on_own_chunk")
+
+
+def on_own_chunk(fn, *args, **kwargs):
+    """``fn(*args, **kwargs)``, its frames on a chunk of CPython's frame stack of their own.
+
+    CPython 3.11 keeps a thread's Python frames in chunks of 16 KiB, each mapped (mmap) when
+    a frame no longer fits in the last one and unmapped as soon as the frame at its start
+    returns. numba's compiler calls in and out of that depth all the time: the first
+    ``sweep.cor()`` mapped and unmapped 224,000 chunks, 2.0 s of system time of a 15.6 s
+    compile (one core, empty cache). Called through a frame of :data:`OWN_CHUNK_SLOTS`
+    slots, which opens a chunk of 1 MiB, the compile's frames stay in that chunk: 340
+    chunks mapped, 13.5 s (docs/speed/history.md). (Python before 3.11 gives the frame a
+    512 KiB value stack of its own, once a call.)
+    """
+    return _on_own_chunk(fn, args, kwargs)
+
+
+class _Entry(CPUDispatcher):
+    """A dispatcher that Python calls: the compiles those calls start (a signature not seen
+    yet, the kernels it calls with it) run :func:`on_own_chunk`."""
+
+    def _compile_for_args(self, *args, **kws):
+        return _on_own_chunk(super()._compile_for_args, args, kws)
+
+
+def _entry(dispatcher):
+    dispatcher.__class__ = _Entry
+    return dispatcher
 
 
 #: Cyclic-GC thresholds while a kernel of this package compiles: a young-generation
@@ -312,6 +364,14 @@ INLINE_FUNCTION_SOURCES = frozenset({"1b53f183258e659d"})
 #: ``CPUCodeLibrary._finalize_final_module`` (numba 0.68.1's) that
 #: :func:`_leave_helpers_unemitted` replaces for called helpers.
 EXECUTABLE_SOURCES = frozenset({"3892c8a654a2ca69", "4b4c34b83488a72f", "95bbf4fcbb90ed99"})
+#: Sources of ``NumpyRulesArrayOperator.generic`` (numba 0.68.1's) that
+#: :func:`_scalar_operators_skip_ufuncs` lets decline scalar operands at once.
+ARRAY_OPERATOR_SOURCES = frozenset({"4647f17d50ba1ade"})
+#: Sources of ``TargetConfig.__hash__``, ``__eq__``, ``values`` and of the metaclass that
+#: makes the options' properties (numba 0.68.1's), which :func:`_quick_flag_comparisons`
+#: replaces with what they compute, computed faster.
+TARGET_CONFIG_SOURCES = frozenset({"4d15a6c75137a983", "6d8774572d07d381", "12a29dc810f6a91b",
+                                   "f2ff91c25728a971"})
 
 
 def _known(functions, sources, version) -> bool:
@@ -336,6 +396,8 @@ def _patch_numba() -> None:
     _share_inline_copies()
     _skip_fresh_copies()
     _leave_helpers_unemitted()
+    _scalar_operators_skip_ufuncs()
+    _quick_flag_comparisons()
 
 
 class _OneMemo:
@@ -504,3 +566,102 @@ def _finalize_unemitted(library) -> None:
     library._finalize_dynamic_globals()
     library._verify_declare_only_symbols()
     library._finalized = True
+
+
+@functools.cache
+def _scalar_operators_skip_ufuncs() -> bool:
+    """Let numba's typing template of numpy's array operators decline scalar operands
+    without matching them against the ufunc's loops; True where it does.
+
+    numba types every ``+``, ``*``, ``<`` ... through this template before the scalar ones,
+    and the template found the ufunc loop for the operands (about 35 us) before it declined
+    them for having no array among them: 12,700 times in the first ``sweep.cor()``. The
+    template declines the same operands as before, with the same result, and types every
+    operation with an array among its operands as numba does.
+    """
+    from numba.core.typing import npydecl                 # noqa: PLC0415 -- numba internals
+
+    return _declining_scalars_in(npydecl.NumpyRulesArrayOperator, numba.__version__)
+
+
+def _declining_scalars_in(template, version) -> bool:
+    """Wrap ``template.generic`` to return None at once for operands that hold no array
+    (an Optional stands for its type, as numba's ufunc typing takes it), while one of this
+    package's dispatchers compiles, where its source is one of
+    :data:`ARRAY_OPERATOR_SOURCES` under ``version``."""
+    from numba.core import types                          # noqa: PLC0415 -- numba internals
+
+    plain = getattr(template, "generic", None)
+    if not _known([plain], ARRAY_OPERATOR_SOURCES, version):
+        return False
+
+    @functools.wraps(plain)
+    def generic(self, args, kws):
+        if _COLLECTOR.depth and not any(
+                isinstance(a.type if isinstance(a, types.Optional) else a,
+                           types.ArrayCompatible) for a in (*args, *kws.values())):
+            return None
+        return plain(self, args, kws)
+    template.generic = generic
+    return True
+
+
+@functools.cache
+def _quick_flag_comparisons() -> bool:
+    """Let numba's compile flags hash and compare as they do, faster, while one of this
+    package's dispatchers compiles; True where they do.
+
+    numba's typing templates of overloaded functions key their cache on the flags of the
+    compile: 32,000 hashes and 26,000 comparisons in the first ``sweep.cor()``, each
+    building the dict of every option through its property (3.5 us; 0.3-0.4 s in all).
+    The hash is numba's own value (that of the sorted option names: numba's hash sorts the
+    dict's keys), computed once per class; a comparison compares the same dicts, built
+    from the defaults and the options set.
+    """
+    from numba.core import targetconfig                   # noqa: PLC0415 -- numba internals
+
+    config = targetconfig.TargetConfig
+    sources = [config.__hash__, config.__eq__, config.values,
+               type(config).__init__]
+    return _quick_comparisons_in(config, sources, numba.__version__)
+
+
+def _quick_comparisons_in(config, sources, version) -> bool:
+    """Replace ``config.__hash__`` and ``__eq__`` (:func:`_quick_flag_comparisons`) where
+    ``sources`` are those of :data:`TARGET_CONFIG_SOURCES` under ``version``."""
+    plain_hash, plain_eq = config.__hash__, config.__eq__
+    if not _known(sources, TARGET_CONFIG_SOURCES, version):
+        return False
+
+    @functools.wraps(plain_hash)
+    def __hash__(self):
+        if _COLLECTOR.depth == 0:
+            return plain_hash(self)
+        return _names_hash(type(self))
+
+    @functools.wraps(plain_eq)
+    def __eq__(self, other):
+        if _COLLECTOR.depth == 0 or not isinstance(other, config):
+            return plain_eq(self, other)
+        return _option_values(self) == _option_values(other)
+    config.__hash__, config.__eq__ = __hash__, __eq__
+    return True
+
+
+@functools.cache
+def _names_hash(cls) -> int:
+    return hash(tuple(sorted(cls.options)))
+
+
+@functools.cache
+def _defaults(cls) -> dict:
+    return {name: option.default for name, option in cls.options.items()}
+
+
+def _option_values(config) -> dict:
+    """``config.values()``: the defaults, overridden by the options set (numba's own
+    ``values()`` where something not an option of the class was set)."""
+    defaults = _defaults(type(config))
+    if not config._values.keys() <= defaults.keys():
+        return config.values()
+    return {**defaults, **config._values}
