@@ -143,6 +143,15 @@ def test_each_variable_is_compressed_only_where_deflate_saves_bytes(tmp_path):
     assert path.stat().st_size < 2 * 8 * n + 0.5 * (raw - 2 * 8 * n)
 
 
+def test_too_few_values_to_judge_by_keep_deflate_with_shuffle():
+    rng = np.random.default_rng(3)
+    few = rng.random(store.netcdf.TRIAL_MIN_BYTES // 8 - 1)     # incompressible, but few
+    assert store.netcdf.deflate_filters(few) == {"zlib": True, "complevel": 1,
+                                                 "shuffle": True}
+    assert not store.netcdf.deflate_filters(rng.random(4096))["zlib"]
+    assert store.netcdf.deflate_filters(np.zeros(0, np.int8))["shuffle"] is False
+
+
 def test_a_file_no_chunk_reached_still_holds_every_variable(tmp_path):
     axes = {"alpha": np.array([1.5]), "beta": np.array([1.5]), "gamma": np.array([0.1]),
             "gtilde": np.array([0.0, 1.0])}

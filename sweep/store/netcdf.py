@@ -66,6 +66,10 @@ MIN_DEFLATE_SAVING = 0.15
 #: over it (a grid's first points may all lie in one corner of the parameter space).
 TRIAL_BYTES = 2 ** 15
 TRIAL_PIECES = 4
+#: Fewer bytes than this do not show how the variable compresses (zlib's own overhead, a
+#: small last chunk arriving first from a Dask cluster): such a trial keeps the default,
+#: deflate with shuffle.
+TRIAL_MIN_BYTES = 2 ** 12
 
 
 def deflate_filters(values: np.ndarray) -> dict:
@@ -73,7 +77,8 @@ def deflate_filters(values: np.ndarray) -> dict:
 
     Deflate (level :data:`COMPLEVEL`) with HDF5's shuffle filter or without it, whichever
     compresses a trial of :data:`TRIAL_BYTES` of ``values`` smaller, or no compression
-    where neither saves :data:`MIN_DEFLATE_SAVING` of those bytes. Shuffle groups the
+    where neither saves :data:`MIN_DEFLATE_SAVING` of those bytes; with shuffle where
+    ``values`` hold less than :data:`TRIAL_MIN_BYTES`. Shuffle groups the
     bytes of equal significance (it wins on smooth coordinates and counts); without it,
     runs of exact zeros (the e of sticking points) compress better.
 
@@ -94,7 +99,7 @@ def deflate_filters(values: np.ndarray) -> dict:
     trial = np.unique(np.concatenate([np.arange(s, min(s + piece, flat.size))
                                       for s in starts]))
     raw = flat[trial].view(np.uint8)
-    if raw.size == 0:   # no data to judge by
+    if raw.size < TRIAL_MIN_BYTES:
         return {"zlib": True, "complevel": COMPLEVEL, "shuffle": size > 1}
     plain = len(zlib.compress(raw.tobytes(), COMPLEVEL))
     shuffled = len(zlib.compress(raw.reshape(-1, size).T.tobytes(), COMPLEVEL))
