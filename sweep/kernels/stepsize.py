@@ -6,11 +6,19 @@ Each point gets one step ``h = pi / (steps * omega_M * D)``: ``omega_M = sqrt(al
 u_M^(alpha-1))`` is the linearised elastic frequency at the undamped maximum compression
 ``u_M`` (root of (13), an upper bound of the damped one), so ``steps`` counts steps per half
 period of the stiffest elastic oscillation the impact can see (steps per impact for the
-linear spring-dashpot, whose contact lasts pi). ``D = min((1 + 2|V(u-bar)|)^(1/5), 16)``
+linear spring-dashpot, whose contact lasts pi). ``D = min((1 + 2|V(u-bar)|)^(1/8), 16)``
 accounts for large loads: the bead swings through a potential well of depth
-``|V(u-bar)| = g~ u-bar alpha/(alpha+1)`` and ``e^2/2`` is what is left of it, so absolute
-errors in e scale with the depth; the step shrinks like its fifth root (the method's order)
-up to the point where roundoff in the state (which grows with the depth too) would win.
+``|V(u-bar)| = g~ u-bar alpha/(alpha+1)`` at speeds up to ``sqrt(1 + 2|V(u-bar)|)``, and the
+state's errors, relative to that swing, come back in e (the speed that is left) scaled by
+it: a power 1/10 of ``1 + 2|V|`` would follow that scale with the method's order 5. With
+1/8 the median error of the first march stays at 0.006-0.009 of tol from g~ = 0.01 to 10
+on the Sobol design (tol 1e-6 .. 1e-10); the 1/5 used before 2026-12-05 over-resolved
+deep wells (0.009 falling to 0.002), and cost that design 12-16% more steps
+(docs/speed/history.md, 2026-12-05). Points whose damping cap
+can bind at ``omega_M`` times that factor keep the power 1/5: their creep rules' steps
+grow steeply as the base step coarsens (g~ = 1e4, gamma = 1e12: 1,605 steps at tol 1e-8
+with 1/5, 7,076 with 1/8 alone). The cap 16 is where roundoff in the state (which grows
+with the depth too) would win.
 
 Damping cap
 -----------
@@ -42,7 +50,8 @@ from typing import NamedTuple
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import damping_rate, elastic_frequency, umax_undamped, well_depth
 
-__all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "MAX_DEPTH_FACTOR", "base_step",
+__all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "MAX_DEPTH_FACTOR", "DEPTH_POWER",
+           "CAPPED_DEPTH_POWER", "base_step",
            "damping_limited", "damping_step", "grading", "needs_grading", "graded_step",
            "StepPolicy", "policy", "local_policy", "first_guess", "resolution",
            "ERROR_AT_GRADE_STEPS"]
@@ -69,11 +78,15 @@ def grading(steps):
     return min(GRADE_RATIO * scale, 0.5), min(GRADE_FIRST * scale, 0.05)
 #: Cap of the load factor D (beyond it roundoff in the state dominates).
 MAX_DEPTH_FACTOR = 16.0
+#: Power of ``1 + 2|V(u-bar)|`` in the load factor D (module docstring).
+DEPTH_POWER = 0.125
+#: The power for points whose damping cap can bind (module docstring).
+CAPPED_DEPTH_POWER = 0.2
 
 
 @jit(inline="always")
-def _depth_factor(alpha, gtilde):
-    return min((1.0 + 2.0 * well_depth(alpha, gtilde)) ** 0.2, MAX_DEPTH_FACTOR)
+def _depth_factor(alpha, gtilde, power):
+    return min((1.0 + 2.0 * well_depth(alpha, gtilde)) ** power, MAX_DEPTH_FACTOR)
 
 
 @jit(inline="always")
@@ -118,7 +131,10 @@ def graded_step(u, v, h, rho, s_min):
 #: 99.9% quantile of the core benchmark's draws (``python benchmarks/error_model.py``,
 #: 20,000 points a law, steps 16 to 96): KK and Hertz within 1.15 times the model, TTI
 #: 1.3, SHC and general exponents 1.8, the linear law 3.1 (at 16 steps; 1.9 from 48 on).
-#: The largest errors (up to 21 times the model) are the boundary's.
+#: Since the depth factor's power 1/8 (2026-12-05), which lets deep wells' errors up to the
+#: shallow points': KK and Hertz 1.45, TTI 1.6, SHC and general 2.1, linear 3.6 at 16
+#: steps; 1.2-1.7 (linear 2.0-2.5) at 33 and 96. The largest errors (up to 21 times the
+#: model) are the boundary's.
 ERROR_AT_GRADE_STEPS = 5e-11
 #: Resolutions the error model may choose.
 MIN_STEPS = 8.0
@@ -153,7 +169,9 @@ def policy(c, steps):
     """The :class:`StepPolicy` of the point with contact law ``c`` at resolution ``steps``."""
     um = umax_undamped(c.alpha, c.gtilde, c.ka)
     omega = elastic_frequency(c.alpha, um)
-    depth = _depth_factor(c.alpha, c.gtilde)
+    depth = _depth_factor(c.alpha, c.gtilde, DEPTH_POWER)
+    if damping_limited(c, um, omega, depth):
+        depth = _depth_factor(c.alpha, c.gtilde, CAPPED_DEPTH_POWER)
     h = base_step(omega, depth, steps)
     rho, first = grading(steps)
     return StepPolicy(h, rho, first * h, steps, needs_grading(c.alpha, c.beta),
