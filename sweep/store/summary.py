@@ -35,7 +35,7 @@ _HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 
 #: Global attributes listed under "settings" by :func:`summarize` (prefixes).
 _SETTINGS = ("integrator_", "options_", "design", "chunk_size", "n_points", "sweep_version",
-             "numba_version", "numpy_version", "run_time", "compute_time",
+             "numba_version", "numpy_version", "numerical_stack", "run_time", "compute_time",
              "points_per_second", "date_created", "sweep_config_sha256", "sweep_command",
              "compile_time", "kernel_time", "numba_num_threads", "numba_threading_layer",
              "executor", *CAVEAT_ATTRS)

@@ -10,10 +10,10 @@ Two executors:
 
 * local (default): chunks are fed one after another, from the main thread, to the api
   functions, which already run on all cores (:mod:`sweep.kernels._parallel`). The netCDF
-  writing (zlib compression where it pays) happens in one background thread, overlapping the next chunk
-  (see :class:`_WriteBehind`; on 2 cores it cut a 4e6-point run of cheap approximations
-  from 25 s to 17 s). Saving a chunk for resume stays synchronous: a chunk is reported done
-  only once it is on disk.
+  writing (zlib compression where it pays) happens in one background thread, overlapping
+  the next chunk (see :class:`_WriteBehind`; on 2 cores it cut a 4e6-point run of cheap
+  approximations from 25 s to 17 s). Saving a chunk for resume stays synchronous: a chunk
+  is reported done only once it is on disk.
 * distributed: ``scheduler="tcp://host:port"`` (or a ``distributed.Client``) submits chunks
   to a Dask cluster, keeping a bounded number in flight; results are written as they come
   back, in any order. Worker threads run the api's serial kernels unless numba's threading
@@ -82,11 +82,11 @@ import numpy as np
 from sweep import api, registry, store
 from sweep._format import count, rate
 from sweep._version import __version__
+from sweep.kernels import vmath as _vmath
 from sweep.sweeps import config as _config
 from sweep.sweeps import design as _design
 from sweep.sweeps import limits as _limits
 from sweep.sweeps import preflight as _preflight_mod
-from sweep.kernels import vmath as _vmath
 from sweep.sweeps import progress as _progress_mod
 
 __all__ = ["ComputePlan", "compute_chunk", "run", "run_in_memory", "RunResult", "RunError",
@@ -387,6 +387,7 @@ def _static_attrs(cfg, design, plan, chunk_size):
         "numba_version": _version("numba"),
         "numpy_version": np.__version__,
         "scipy_version": _version("scipy"),
+        "numerical_stack": numerical_stack(),
         "python_version": platform.python_version(),
         "sweep_config": cfg.text,
         "sweep_config_source": cfg.source,
