@@ -170,12 +170,14 @@ def policy(c, steps):
     um = umax_undamped(c.alpha, c.gtilde, c.ka)
     omega = elastic_frequency(c.alpha, um)
     depth = _depth_factor(c.alpha, c.gtilde, DEPTH_POWER)
-    if damping_limited(c, um, omega, depth):
+    capped = damping_limited(c, um, omega, depth)
+    if capped:
         depth = _depth_factor(c.alpha, c.gtilde, CAPPED_DEPTH_POWER)
+        capped = damping_limited(c, um, omega, depth)
     h = base_step(omega, depth, steps)
     rho, first = grading(steps)
-    return StepPolicy(h, rho, first * h, steps, needs_grading(c.alpha, c.beta),
-                      damping_limited(c, um, omega, depth), False, omega)
+    return StepPolicy(h, rho, first * h, steps, needs_grading(c.alpha, c.beta), capped,
+                      False, omega)
 
 
 @jit(inline="always")
