@@ -55,8 +55,8 @@ from sweep.kernels.stepsize import (StepPolicy, damping_step, first_guess, local
                                     policy)
 
 __all__ = ["Ending", "State", "march", "march_point", "start", "finish_step", "after_stages",
-           "after_stages_estimated", "out_of_budget", "EXIT", "TROUGH", "SPENT", "REST", "BUDGET", "CREEP", "NEGLIGIBLE",
-           "GOING", "scratch"]
+           "after_stages_estimated", "out_of_budget", "EXIT", "TROUGH", "SPENT", "REST",
+           "BUDGET", "CREEP", "NEGLIGIBLE", "GOING", "scratch"]
 
 # Relative roundoff in the dissipated energy q (a sum of positive terms): the energy rule
 # waits until q exceeds the initial energy 1/2 by more than it.

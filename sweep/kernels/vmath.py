@@ -8,8 +8,9 @@ compute :data:`WIDTH` of them in about the time of one scalar call.
 **The same bits for one lane and for many.** The one-point march evaluates its powers with
 :func:`log1` and :func:`exp1`, which put their argument in lane 0 of the same vector
 function that :func:`log4` and :func:`exp4` apply to four of the array kernels' lanes
-(4-tuples, built and taken apart in registers): vector math functions are elementwise, so a lane's result does not depend on what the
-other lanes hold (``tests/test_vmath.py``), and the two marches stay bit-identical.
+(4-tuples, built and taken apart in registers): vector math functions are elementwise, so
+a lane's result does not depend on what the other lanes hold (``tests/test_vmath.py``),
+and the two marches stay bit-identical.
 
 **Where libmvec is not used.** The variant is chosen once, at import: AVX2 (4 doubles),
 else AVX-512 (8), else SSE4 (2), the first that the host CPU has, on x86_64 with libmvec
@@ -23,12 +24,14 @@ documents libmvec's double exp and log within 4 ulp of the exact value (its scal
 and log within 1). Measured (AVX2 variant, 1e5 arguments over the march's ranges: u in
 [1e-300, 10], exponents in [0, 3]): log within 1 ulp of mpmath's correctly rounded value,
 exp within 3 (glibc's scalar calls: 1 and 1); they differ from the scalar calls' results
-for 21% of the logs and 31% of the exps. ``tests/test_vmath.py`` holds them to 4. The report's models and integer exponents take no
-exp or log in their stages: their results do not depend on this module.
+for 21% of the logs and 31% of the exps. ``tests/test_vmath.py`` holds them to 4. The
+report's models and integer exponents take no exp or log in their stages: their results do
+not depend on this module.
 
 **The closed forms' quadratures** (:mod:`sweep.kernels.special`) take the exps of their
-nodes four at a time as tuples (:func:`exp4`, :func:`expm1_4`), no array in between, and the nodes' square roots and divisions four at a time
-(:func:`sqrt_div4`, IEEE vector operations, the bits of the scalar ones). libmvec's expm1
+nodes four at a time as tuples (:func:`exp4`, :func:`expm1_4`), no array in between, and
+the nodes' square roots and divisions four at a time (:func:`sqrt_div4`, IEEE vector
+operations, the bits of the scalar ones). libmvec's expm1
 came with glibc 2.35: :data:`HAS` says which functions it has here, and a
 function it lacks is math's call element by element.
 
@@ -118,8 +121,7 @@ def _scalar_intrinsic(function):
         def codegen(context, builder, signature, args):
             if not WIDTH or not isinstance(context, CPUContext):
                 return _scalar_call(context, builder, function, args[0])
-            ones = ir.Constant(ir.VectorType(ir.DoubleType(), WIDTH), [1.0] * WIDTH)
-            lanes = builder.insert_element(ones, args[0], ir.Constant(ir.IntType(32), 0))
+            lanes = _pack(builder, ir.VectorType(ir.DoubleType(), WIDTH), [args[0]], 1.0)
             result = _vector_call(builder, function, lanes)
             return builder.extract_element(result, ir.Constant(ir.IntType(32), 0))
         return sig, codegen
@@ -164,10 +166,8 @@ def _tuple_intrinsic(function):
             else:
                 out = []
                 for start in range(0, _TUPLE, WIDTH):
-                    lanes = ir.Constant(ir.VectorType(ir.DoubleType(), WIDTH), [1.0] * WIDTH)
                     part = values[start:start + WIDTH]
-                    for k, v in enumerate(part):
-                        lanes = builder.insert_element(lanes, v, ir.Constant(ir.IntType(32), k))
+                    lanes = _pack(builder, ir.VectorType(ir.DoubleType(), WIDTH), part, 1.0)
                     result = _vector_call(builder, function, lanes)
                     out += [builder.extract_element(result, ir.Constant(ir.IntType(32), k))
                             for k in range(len(part))]
@@ -219,9 +219,10 @@ def sqrt_div4(typingctx, x, y):
     return types.Tuple((x, x))(x, y), codegen
 
 
-def _pack(builder, vt, values):
-    """An LLVM vector of the scalars ``values``."""
-    v = ir.Constant(vt, ir.Undefined)
+def _pack(builder, vt, values, pad=None):
+    """An LLVM vector of the scalars ``values`` in its first lanes, the others ``pad``
+    (undefined where None: every lane is given)."""
+    v = ir.Constant(vt, ir.Undefined if pad is None else [pad] * vt.count)
     for k, e in enumerate(values):
         v = builder.insert_element(v, e, ir.Constant(ir.IntType(32), k))
     return v
