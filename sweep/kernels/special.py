@@ -58,6 +58,11 @@ __all__ = ["beta_fn", "log_abs_gamma", "gtilde_of_theta", "theta_of_gtilde", "jm
            "iq_quadrature", "jm_chebyshev", "iq_chebyshev", "chebyshev_tables", "iq_at_zero",
            "first_order_constants", "large_gtilde_constants", "THETA_MIN", "CHEBYSHEV_N_MAX"]
 
+#: Halley's last step in :func:`theta_of_gtilde`, relative to the scale of log theta: the
+#: error left is about its cube. 1e-6, 1e-5 and 3e-5 all gave theta within 4 ulps of
+#: Newton's to 4e-16 (alpha U[1, 3], 20,000 loads U[0, 10] and 10^U[-8, 8]); an absolute
+#: threshold instead (1e-6) left 7e-11 at theta ~ 1 - 3e-5.
+HALLEY_DONE = 1e-5
 #: Smallest theta the inverse map returns; larger g~ (beyond ~1e149 at alpha = 1) are out of
 #: range and give NaN.
 THETA_MIN = 1e-300
@@ -120,10 +125,12 @@ def gtilde_of_theta(alpha, theta):
 def theta_of_gtilde(alpha, gtilde):
     """Inverse of (43): the ``theta`` in (0, 1] with ``g~(theta) = g~`` (``theta(0) = 1``).
 
-    Safeguarded Newton iteration on ``log g~`` as a function of ``log theta`` (concave and
-    decreasing, so Newton converges monotonically once on the right of the root), inside a
-    bracket that every step shrinks; a step leaving the bracket is replaced by a geometric
-    bisection. The residual ``log(g~(theta)/g~)`` is formed from the ratio, not from the
+    Safeguarded Halley iteration on ``log g~`` as a function of ``log theta`` (concave and
+    decreasing), inside a bracket that every step shrinks; a step leaving the bracket is
+    replaced by a geometric bisection. Halley, not Newton: the curvature is one division
+    more, and the error cubes at each step, so a step below ``HALLEY_DONE`` on the scale
+    of ``1 - theta`` leaves an error far below an ulp (2.8 iterations on the Sobol design's
+    loads against Newton's 4.5). The residual ``log(g~(theta)/g~)`` is formed from the ratio, not from the
     difference of two logarithms, so theta comes out to a few ulps for g~ up to 1e100
     (``theta >= THETA_MIN``; beyond, NaN). NaN for negative or non-finite g~.
     """
@@ -154,10 +161,14 @@ def theta_of_gtilde(alpha, gtilde):
             lo = th
         else:
             hi = th
-        slope = -(alpha / ap1 + th / (1.0 - th))  # d log g~ / d log theta
+        q = th / (1.0 - th)
+        slope = -(alpha / ap1 + q)              # d log g~ / d log theta
         step = -r / slope
+        # The curvature -q / (1 - theta) is d slope / d log theta.
+        step = step / (1.0 - 0.5 * step * q / ((1.0 - th) * slope))
         th_new = th * math.exp(step)
-        if abs(step) < 4e-16:       # quadratic convergence: the remaining error is ~step^2
+        # Near theta = 1 the scale of log theta is 1 - theta ~ 1 / q, not 1.
+        if abs(step) * (1.0 + q) < HALLEY_DONE:
             return th_new
         if not (lo < th_new < hi):
             th_new = math.sqrt(lo * hi)
