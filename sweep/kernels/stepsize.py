@@ -14,11 +14,8 @@ it: a power 1/10 of ``1 + 2|V|`` would follow that scale with the method's order
 1/8 the median error of the first march stays at 0.006-0.009 of tol from g~ = 0.01 to 10
 on the Sobol design (tol 1e-6 .. 1e-10); the 1/5 used before 2026-12-05 over-resolved
 deep wells (0.009 falling to 0.002), and cost that design 12-16% more steps
-(docs/speed/history.md, 2026-12-05). Points whose damping cap
-can bind at ``omega_M`` times that factor keep the power 1/5: their creep rules' steps
-grow steeply as the base step coarsens (g~ = 1e4, gamma = 1e12: 1,605 steps at tol 1e-8
-with 1/5, 7,076 with 1/8 alone). The cap 16 is where roundoff in the state (which grows
-with the depth too) would win.
+(docs/speed/history.md, 2026-12-05). The cap 16 is where roundoff in the state (which
+grows with the depth too) would win.
 
 Damping cap
 -----------
@@ -51,7 +48,7 @@ from sweep.kernels._jit import jit
 from sweep.kernels.contact import damping_rate, elastic_frequency, umax_undamped, well_depth
 
 __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "MAX_DEPTH_FACTOR", "DEPTH_POWER",
-           "CAPPED_DEPTH_POWER", "NEWTON_FLOOR", "base_step",
+           "NEWTON_FLOOR", "base_step",
            "damping_limited", "damping_step", "grading", "needs_grading", "graded_step",
            "StepPolicy", "policy", "local_policy", "first_guess", "resolution",
            "ERROR_AT_GRADE_STEPS"]
@@ -78,15 +75,16 @@ def grading(steps):
     return min(GRADE_RATIO * scale, 0.5), min(GRADE_FIRST * scale, 0.05)
 #: Cap of the load factor D (beyond it roundoff in the state dominates).
 MAX_DEPTH_FACTOR = 16.0
-#: Power of ``1 + 2|V(u-bar)|`` in the load factor D (module docstring).
+#: Power of ``1 + 2|V(u-bar)|`` in the load factor D (module docstring). Until the damping
+#: cap's floor (:data:`NEWTON_FLOOR`, 2026-12-05) points whose cap can bind kept 1/5: their
+#: steps grew steeply as the base step coarsened (g~ = 1e4, gamma = 1e12: 1,605 steps at tol
+#: 1e-8 with 1/5, 7,076 with 1/8; now 5 either way).
 DEPTH_POWER = 0.125
-#: The power for points whose damping cap can bind (module docstring).
-CAPPED_DEPTH_POWER = 0.2
 
 
 @jit(inline="always")
-def _depth_factor(alpha, gtilde, power):
-    return min((1.0 + 2.0 * well_depth(alpha, gtilde)) ** power, MAX_DEPTH_FACTOR)
+def _depth_factor(alpha, gtilde):
+    return min((1.0 + 2.0 * well_depth(alpha, gtilde)) ** DEPTH_POWER, MAX_DEPTH_FACTOR)
 
 
 @jit(inline="always")
@@ -169,15 +167,11 @@ def policy(c, steps):
     """The :class:`StepPolicy` of the point with contact law ``c`` at resolution ``steps``."""
     um = umax_undamped(c.alpha, c.gtilde, c.ka)
     omega = elastic_frequency(c.alpha, um)
-    depth = _depth_factor(c.alpha, c.gtilde, DEPTH_POWER)
-    capped = damping_limited(c, um, omega, depth)
-    if capped:
-        depth = _depth_factor(c.alpha, c.gtilde, CAPPED_DEPTH_POWER)
-        capped = damping_limited(c, um, omega, depth)
+    depth = _depth_factor(c.alpha, c.gtilde)
     h = base_step(omega, depth, steps)
     rho, first = grading(steps)
-    return StepPolicy(h, rho, first * h, steps, needs_grading(c.alpha, c.beta), capped,
-                      False, omega)
+    return StepPolicy(h, rho, first * h, steps, needs_grading(c.alpha, c.beta),
+                      damping_limited(c, um, omega, depth), False, omega)
 
 
 @jit(inline="always")
