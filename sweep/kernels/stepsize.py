@@ -213,7 +213,9 @@ def _capped_step(u, v, s, p, c):
         cap = damping_step(reach, c, p.steps)
         if cap >= s:
             return s
-        s = _towards_cap(s, cap, 1.0 + (c.beta - 1.0) * s * (vp + s * c.gtilde) / reach)
+        # d log u(s) / d log s; reach > 0 unless beta = 1 (a cap that u does not move).
+        carried = s * (vp + s * c.gtilde) / reach if reach > 0.0 else 0.0
+        s = _towards_cap(s, cap, 1.0 + (c.beta - 1.0) * carried)
     return min(s, damping_step(u + s * vp + 0.5 * s * s * c.gtilde, c, p.steps))
 
 
@@ -230,11 +232,11 @@ def _towards_cap(s, cap, m):
     and took 103, 591, 1,642, 12,830, 97,219 steps at ``steps`` 96, 48, 33, 16, 8.
     ``log(cap / s)`` is concave in ``log s`` (``log u(s)`` is a log-sum-exp), so Newton's
     steps stay at or above the fixed point, and the floor keeps the step above a quarter of
-    it: now 7, 5, 5, 4, 4 steps. Newton's step alone (floor 1) made the first step of starts
-    that the speed carries, e.g. (1, 5, 1e6, 0), 1.7 times the mean's: same e, but 26 times
-    the summed local error estimates, refined (the hard cases' huge-gamma set: 43,235 ->
-    70,678 steps); with 1/4 such starts step as before (docs/speed/history.md,
-    2026-12-05)."""
+    it: now 6, 5, 5, 4, 4 steps. Newton's step alone (floor 1) made the first step of starts
+    that the speed carries, e.g. (1, 5, 1e6, 0) at 96 steps, 1.7 times the mean's (0.59 of
+    the fixed point): same e, but 26 times the summed local error estimates, refined (the
+    hard cases' huge-gamma set: 43,235 -> 70,678 steps). Floors of 0.2 to 0.3 cost the same
+    (docs/speed/history.md, 2026-12-05)."""
     mean = math.sqrt(s * cap) if s * cap > 1e-290 else math.sqrt(s) * math.sqrt(cap)
     if mean >= NEWTON_FLOOR * s:
         # The floor is below NEWTON_FLOOR s (cap < s): no pow where the mean moves little.
