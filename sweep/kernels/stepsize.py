@@ -14,11 +14,8 @@ it: a power 1/10 of ``1 + 2|V|`` would follow that scale with the method's order
 1/8 the median error of the first march stays at 0.006-0.009 of tol from g~ = 0.01 to 10
 on the Sobol design (tol 1e-6 .. 1e-10); the 1/5 used before 2026-12-05 over-resolved
 deep wells (0.009 falling to 0.002), and cost that design 12-16% more steps
-(docs/speed/history.md, 2026-12-05). Points whose damping cap
-can bind at ``omega_M`` times that factor keep the power 1/5: their creep rules' steps
-grow steeply as the base step coarsens (g~ = 1e4, gamma = 1e12: 1,605 steps at tol 1e-8
-with 1/5, 7,076 with 1/8 alone). The cap 16 is where roundoff in the state (which grows
-with the depth too) would win.
+(docs/speed/history.md, 2026-12-05). The cap 16 is where roundoff in the state (which
+grows with the depth too) would win.
 
 Damping cap
 -----------
@@ -59,7 +56,7 @@ from sweep.kernels._jit import jit
 from sweep.kernels.contact import damping_rate, elastic_frequency, umax_undamped, well_depth
 
 __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "GRADE_EXPONENT",
-           "MAX_DEPTH_FACTOR", "DEPTH_POWER", "CAPPED_DEPTH_POWER", "base_step",
+           "MAX_DEPTH_FACTOR", "DEPTH_POWER", "NEWTON_FLOOR", "base_step",
            "damping_limited", "damping_step", "grading", "singular_exponent",
            "graded_by_exponent", "needs_grading", "graded_step",
            "StepPolicy", "policy", "local_policy", "first_guess", "resolution",
@@ -140,15 +137,16 @@ def graded_by_exponent(c, steps):
 
 #: Cap of the load factor D (beyond it roundoff in the state dominates).
 MAX_DEPTH_FACTOR = 16.0
-#: Power of ``1 + 2|V(u-bar)|`` in the load factor D (module docstring).
+#: Power of ``1 + 2|V(u-bar)|`` in the load factor D (module docstring). Until the damping
+#: cap's floor (:data:`NEWTON_FLOOR`, 2026-12-05) points whose cap can bind kept 1/5: their
+#: steps grew steeply as the base step coarsened (g~ = 1e4, gamma = 1e12: 1,605 steps at tol
+#: 1e-8 with 1/5, 7,076 with 1/8; now 5 either way).
 DEPTH_POWER = 0.125
-#: The power for points whose damping cap can bind (module docstring).
-CAPPED_DEPTH_POWER = 0.2
 
 
 @jit(inline="always")
-def _depth_factor(alpha, gtilde, power):
-    return min((1.0 + 2.0 * well_depth(alpha, gtilde)) ** power, MAX_DEPTH_FACTOR)
+def _depth_factor(alpha, gtilde):
+    return min((1.0 + 2.0 * well_depth(alpha, gtilde)) ** DEPTH_POWER, MAX_DEPTH_FACTOR)
 
 
 @jit(inline="always")
@@ -231,12 +229,9 @@ def policy(c, steps):
     """The :class:`StepPolicy` of the point with contact law ``c`` at resolution ``steps``."""
     um = umax_undamped(c.alpha, c.gtilde, c.ka)
     omega = elastic_frequency(c.alpha, um)
-    depth = _depth_factor(c.alpha, c.gtilde, DEPTH_POWER)
-    capped = damping_limited(c, um, omega, depth)
-    if capped:
-        depth = _depth_factor(c.alpha, c.gtilde, CAPPED_DEPTH_POWER)
-        capped = damping_limited(c, um, omega, depth)
+    depth = _depth_factor(c.alpha, c.gtilde)
     h = base_step(omega, depth, steps)
+    capped = damping_limited(c, um, omega, depth)
     # Points whose damping cap can bind keep grading(): widened, the creep hard case
     # (4.72, 4.44, 18.3, 1e-6) ran into the step budget (tests/test_hard_cases.py).
     rho, first = grading(steps) if capped else graded_by_exponent(c, steps)
@@ -270,20 +265,55 @@ def _base(u, p, c):
     return p.h * scale, p.s_min * scale
 
 
+#: Least fraction of Newton's step towards the damping cap's fixed point that
+#: :func:`_capped_step` moves to (:func:`_towards_cap`).
+NEWTON_FLOOR = 0.25
+
+
 # Called, not inlined: only points whose damping cap can bind come here (compile time).
 @jit()
 def _capped_step(u, v, s, p, c):
     """The largest step up to s within the damping cap judged where the step may take the
-    bead (speed and load push it deeper): the fixed point of ``s = cap(u(s))``, approached
-    by geometric means (the cap falls as s grows)."""
+    bead (speed and load push it deeper, to ``u(s) = u + s v+ + s^2 g~/2``): the fixed point
+    of ``s = cap(u(s))``, approached by geometric means (the cap falls as s grows), but
+    never to below a fraction of it (:func:`_towards_cap`)."""
+    vp = max(v, 0.0)
     for _ in range(4):
-        cap = damping_step(u + s * max(v, 0.0) + 0.5 * s * s * c.gtilde, c, p.steps)
+        reach = u + s * vp + 0.5 * s * s * c.gtilde
+        cap = damping_step(reach, c, p.steps)
         if cap >= s:
             return s
-        sc = s * cap
-        # Under a huge damping (gamma ~ 1e245) the product underflows: s became 0.
-        s = math.sqrt(sc) if sc > 1e-290 else math.sqrt(s) * math.sqrt(cap)
-    return min(s, damping_step(u + s * max(v, 0.0) + 0.5 * s * s * c.gtilde, c, p.steps))
+        # d log u(s) / d log s; reach > 0 unless beta = 1 (a cap that u does not move).
+        carried = s * (vp + s * c.gtilde) / reach if reach > 0.0 else 0.0
+        s = _towards_cap(s, cap, 1.0 + (c.beta - 1.0) * carried)
+    return min(s, damping_step(u + s * vp + 0.5 * s * s * c.gtilde, c, p.steps))
+
+
+@jit(inline="always")
+def _towards_cap(s, cap, m):
+    """The next step after s, whose cap ``cap < s`` falls like ``s^-(m-1)`` there: the
+    geometric mean of s and cap, or :data:`NEWTON_FLOOR` times Newton's step
+    ``s (cap / s)^(1/m)`` if that is larger.
+
+    The geometric mean is Newton's step for a cap falling like 1/s (m = 2). Where it falls
+    faster it lands below the fixed point, and far below where the load carries the bead
+    (m up to 2 beta - 1; the coarser the resolution, the further above it s starts):
+    (1, 5, 1e12, 1e4) stepped at 0.013 (``steps`` 96) down to 7e-6 (8) of the fixed point,
+    and took 103, 591, 1,642, 12,830, 97,219 steps at ``steps`` 96, 48, 33, 16, 8.
+    ``log(cap / s)`` is concave in ``log s`` (``log u(s)`` is a log-sum-exp), so Newton's
+    steps stay at or above the fixed point, and the floor keeps the step above a quarter of
+    it: now 6, 5, 5, 4, 4 steps. Newton's step alone (floor 1) made the first step of starts
+    that the speed carries, e.g. (1, 5, 1e6, 0) at 96 steps, 1.7 times the mean's (0.59 of
+    the fixed point): same e, but 26 times the summed local error estimates, refined (the
+    hard cases' huge-gamma set: 43,235 -> 70,678 steps). Floors of 0.2 to 0.3 cost the same
+    (docs/speed/history.md, 2026-12-05)."""
+    mean = math.sqrt(s * cap) if s * cap > 1e-290 else math.sqrt(s) * math.sqrt(cap)
+    if mean >= NEWTON_FLOOR * s:
+        # The floor is below NEWTON_FLOOR s (cap < s): no pow where the mean moves little.
+        return mean
+    # Under a huge damping (gamma ~ 1e245) s cap underflows (mean: two roots) and so may
+    # cap / s: the floor is then 0 and the mean decides.
+    return max(mean, NEWTON_FLOOR * s * (cap / s) ** (1.0 / m))
 
 
 @jit(inline="always")
