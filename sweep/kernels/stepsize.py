@@ -6,16 +6,19 @@ Each point gets one step ``h = pi / (steps * omega_M * D)``: ``omega_M = sqrt(al
 u_M^(alpha-1))`` is the linearised elastic frequency at the undamped maximum compression
 ``u_M`` (root of (13), an upper bound of the damped one), so ``steps`` counts steps per half
 period of the stiffest elastic oscillation the impact can see (steps per impact for the
-linear spring-dashpot, whose contact lasts pi). ``D = min((1 + 2|V(u-bar)|)^(1/8), 16)``
+linear spring-dashpot, whose contact lasts pi). ``D = min((1 + 2|V(u-bar)|)^(1/9), 16)``
 accounts for large loads: the bead swings through a potential well of depth
 ``|V(u-bar)| = g~ u-bar alpha/(alpha+1)`` at speeds up to ``sqrt(1 + 2|V(u-bar)|)``, and the
 state's errors, relative to that swing, come back in e (the speed that is left) scaled by
 it: a power 1/10 of ``1 + 2|V|`` would follow that scale with the method's order 5. With
-1/8 the median error of the first march stays at 0.006-0.009 of tol from g~ = 0.01 to 10
-on the Sobol design (tol 1e-6 .. 1e-10); the 1/5 used before 2026-12-05 over-resolved
-deep wells (0.009 falling to 0.002), and cost that design 12-16% more steps
-(docs/speed/history.md, 2026-12-05). The cap 16 is where roundoff in the state (which
-grows with the depth too) would win.
+1/9 the median error of the first march stays at 0.008-0.011 of tol in every g~ bin from
+0 to 10 on the Sobol design (tol 1e-6 .. 1e-10; 1/8 let it fall to 0.0065-0.0076 at
+g~ in [3, 10], 1/10 let it rise to 0.009-0.011 there); the 1/5 used before 2026-12-05
+over-resolved deep wells (0.009 falling to 0.002), and cost that design 12-16% more steps
+(docs/speed/history.md, 2026-12-05). 1/10 would save more on the Sobol design (4.4% fewer
+steps than 1/8 at tol 1e-8, against 2.6% for 1/9) but costs the linear law 1.1% at tol
+1e-6 in refinements. The cap 16 is where roundoff in the state (which grows with the depth
+too) would win.
 
 Damping cap
 -----------
@@ -140,8 +143,13 @@ MAX_DEPTH_FACTOR = 16.0
 #: Power of ``1 + 2|V(u-bar)|`` in the load factor D (module docstring). Until the damping
 #: cap's floor (:data:`NEWTON_FLOOR`, 2026-12-05) points whose cap can bind kept 1/5: their
 #: steps grew steeply as the base step coarsened (g~ = 1e4, gamma = 1e12: 1,605 steps at tol
-#: 1e-8 with 1/5, 7,076 with 1/8; now 5 either way).
-DEPTH_POWER = 0.125
+#: 1e-8 with 1/5, 7,076 with 1/8; now 5 either way). 1/9 rather than 1/8 (2026-12-05,
+#: against steps=500, tol=1e-12): 1.9 / 2.6 / 2.6% fewer steps, refinement included, on a
+#: 65,536-point Sobol design at tol 1e-6 / 1e-8 / 1e-10, 0.1-0.6% fewer on the KK, TTI and
+#: general draws of benchmarks/tol_margin.py, linear +0.4% at 1e-6 and -0.3 to -0.4% at the
+#: others; the same largest errors (unrefined and final) and decisions; hard cases 0.4% fewer.
+#: 1/10 saved 4.4% on the Sobol design but cost linear 1.1% at tol 1e-6.
+DEPTH_POWER = 1.0 / 9.0
 
 
 @jit(inline="always")
@@ -191,10 +199,10 @@ def graded_step(u, v, h, rho, s_min):
 #: 99.9% quantile of the core benchmark's draws (``python benchmarks/error_model.py``,
 #: 20,000 points a law, steps 16 to 96): KK and Hertz within 1.15 times the model, TTI
 #: 1.3, SHC and general exponents 1.8, the linear law 3.1 (at 16 steps; 1.9 from 48 on).
-#: Since the depth factor's power 1/8 (2026-12-05), which lets deep wells' errors up to the
-#: shallow points': KK and Hertz 1.45, TTI 1.6, SHC and general 2.1, linear 3.6 at 16
-#: steps; 1.2-1.7 (linear 2.0-2.5) at 33 and 96. The largest errors (up to 21 times the
-#: model) are the boundary's.
+#: Since the depth factor's power 1/9 (2026-12-05), which lets deep wells' errors up to the
+#: shallow points': KK and Hertz 1.45-1.5, TTI 1.7, SHC and general 2.15, linear 3.6 at 16
+#: steps; 1.3-1.7 (linear 2.2-2.7) at 33 and 96 (with 1/8: 1.45, 1.6, 2.1, 3.6; 1.2-1.7,
+#: linear 2.0-2.5). The largest errors (up to 21 times the model) are the boundary's.
 ERROR_AT_GRADE_STEPS = 5e-11
 #: Resolutions the error model may choose.
 MIN_STEPS = 8.0
