@@ -130,9 +130,10 @@ def theta_of_gtilde(alpha, gtilde):
     replaced by a geometric bisection. Halley, not Newton: the curvature is one division
     more, and the error cubes at each step, so a step below ``HALLEY_DONE`` on the scale
     of ``1 - theta`` leaves an error far below an ulp (2.8 iterations on the Sobol design's
-    loads against Newton's 4.5). The residual ``log(g~(theta)/g~)`` is formed from the ratio, not from the
-    difference of two logarithms, so theta comes out to a few ulps for g~ up to 1e100
-    (``theta >= THETA_MIN``; beyond, NaN). NaN for negative or non-finite g~.
+    loads against Newton's 4.5). The residual ``log(g~(theta)/g~)`` is formed from the
+    ratio, not from the difference of two logarithms, so theta comes out to a few ulps for
+    g~ up to 1e100 (``theta >= THETA_MIN``; beyond, NaN). NaN for negative or non-finite
+    g~.
     """
     if not (gtilde >= 0.0) or not math.isfinite(gtilde) or not (alpha >= 1.0):
         return math.nan
