@@ -117,3 +117,32 @@ def test_a_certain_stick_is_decided_by_one_march(alpha, beta, gamma, gtilde):
     first = sweep.integrate(alpha, beta, gamma, gtilde, tol=1e-6, refine=False)
     assert float(r.e) == 0.0 and bool(r.sticks) and float(r.e_err) == 0.0
     assert int(r.n_steps) == int(first.n_steps)
+
+
+def test_estimate_of_a_nearly_elastic_bounce_follows_the_dissipated_energy():
+    """q, an integral along the march's path, errs by about q times the path's energy
+    defect (sweep.kernels.balance.defect_share): where little energy is dissipated, the
+    whole defect overstated the error of e 50-500 times (median 0.002-0.02)."""
+    alpha, beta, gamma, gtilde, e_ref = draw("linear")
+    elastic = (1.0 - e_ref ** 2) / 2.0 < 0.05
+    assert elastic.sum() >= 20
+    r = sweep.integrate(alpha, beta, gamma, gtilde, steps=48, refine=False)
+    ratio = np.abs(r.e - e_ref)[elastic] / r.e_err[elastic]
+    assert np.all(ratio <= 1.0), ratio.max()
+    assert np.median(ratio) >= 0.05, np.median(ratio)
+
+
+# Nearly elastic bounces (e ~ 0.999) whose damping exponent beta is below alpha, not an
+# integer, and graded for alpha or for beta weighted by gamma only
+# (sweep.kernels.stepsize.resolves_damping): q's own integrand errs at u = 0 in proportion
+# to q, whatever gamma; with the defect weighed by q their true error was 3-6 times e_err.
+UNRESOLVED_DAMPING = [(2.904, 1.204, 1.43e-04, 0.450), (2.560, 1.101, 2.15e-04, 0.312),
+                      (2.0, 1.1, 1.5e-4, 0.3)]
+
+
+@pytest.mark.parametrize("alpha, beta, gamma, gtilde", UNRESOLVED_DAMPING)
+def test_estimate_keeps_the_whole_defect_where_the_damping_is_not_resolved(alpha, beta,
+                                                                          gamma, gtilde):
+    ref = reference.dop853_cor(alpha, beta, gamma, gtilde)
+    r = sweep.integrate(alpha, beta, gamma, gtilde, tol=1e-8, refine=False)
+    assert abs(float(r.e) - ref.e) <= float(r.e_err) - REF_SLACK["general"]

@@ -277,7 +277,7 @@ def _stick_doubt(st, c):
     # that bound (46% of the steps of heavily damped KK draws), where a few steps more of
     # this march, H still falling, decide it.
     h = st.e0 - dissipated(st.u, st.v, st.r, c)
-    dq = q_error(c, st.u, st.v, h, st.lq, st.n, st.p.steps)
+    dq = q_error(c, st.u, st.v, h, st.lq, st.n, st.p.steps, 1.0)
     return -1.0 if well_depth(c.alpha, c.gtilde) <= dq else h + dq
 
 

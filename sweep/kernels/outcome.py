@@ -49,7 +49,7 @@ import math
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.balance import ROUNDING, q_error, swing2
+from sweep.kernels.balance import ROUNDING, defect_share, q_error, swing2
 from sweep.kernels.march import CREEP, EXIT, NEGLIGIBLE, REST, SPENT, TROUGH
 from sweep.registry import Status
 
@@ -189,7 +189,7 @@ def decide(c, end, steps):
     the energy balance's and the velocity's values of e where the bead left (NaN where not
     defined)."""
     h = end.h
-    dq = q_error(c, end.u, end.v, h, end.lq, end.n, steps)
+    dq = q_error(c, end.u, end.v, h, end.lq, end.n, steps, defect_share(c, h))
     if end.kind == EXIT:
         return _exit(c, end, h, dq, swing2(c))
     if end.kind == TROUGH:
