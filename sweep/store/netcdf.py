@@ -57,11 +57,15 @@ CHECKSUM = True
 #: these (mostly incompressible float64) data; the shuffle filter does most of the gain.
 COMPLEVEL = 1
 #: Deflate is kept for a variable only where it saves at least this fraction of the bytes.
-#: It costs ~20 ms of a core per 512 kB storage chunk of float64 (~25 MB/s), taken from
-#: the kernels' cores when every core computes (configs/sobol_1m.toml: 2 s of CPU a
-#: million points with every variable deflated), and saves only 12-20% of the times, u_max,
-#: e and gamma of scattered points (random low-order bits).
-MIN_DEFLATE_SAVING = 0.15
+#: It costs ~10-20 ms of a core per 512 kB storage chunk of float64, taken from the
+#: kernels' cores when every core computes, and the one writer thread bounds a run on many
+#: cores (configs/sobol_1m.toml: ~0.9 s of kernels a million points on 16 cores, against
+#: 1.4 s of writer CPU with this at 0.15). Scattered points' times, u_max, gamma and the
+#: first-order e and its error (random low-order bits, few exact zeros) save only 12-31%.
+#: At 0.35 the Sobol design's writer takes 1.03 s of CPU a million points instead of 1.37,
+#: for a file 9% larger (19.5 MB instead of 17.9 for 262,144 points; `python
+#: benchmarks/writer.py --n 262144`): e_ord1, error_ord1 and gamma are stored as they are.
+MIN_DEFLATE_SAVING = 0.35
 #: Bytes of a variable's first chunk compressed on trial, in TRIAL_PIECES pieces spread
 #: over it (a grid's first points may all lie in one corner of the parameter space).
 TRIAL_BYTES = 2 ** 15
