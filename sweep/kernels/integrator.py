@@ -113,8 +113,8 @@ TOL_MARGIN = 1.0
 #: but cost the hard cases 5.7% more than before at tol 1e-10 (third marches); 1.2 and
 #: 1.35 saved 0.1-0.9% less. At most 2: a first march far
 #: off (e_err 1e2-1e5 times the target near critical damping) went to 8 at once, where
-#: Richardson across the jump said 2e-5 at tol 1e-8 and no room was left
-#: (tests/test_integrator_accuracy.py::test_refined_estimate_stays_meaningful_near_critical_damping).
+#: Richardson across the jump said 2e-5 at tol 1e-8 and no room was left (tests/
+#: test_integrator_accuracy.py::test_refined_estimate_stays_meaningful_near_critical_damping).
 FIRST_RATIO_C = 1.15
 FIRST_MIN_RATIO = 1.3
 #: Richardson takes the order at which the two marches' own estimates fell (up to
@@ -310,7 +310,8 @@ class Refining(NamedTuple):
 def _refining(a, s):
     """The refinement of a point whose first march ``a`` needs it (:func:`_needs_refining`):
     checked first against a march up to twice the resolution (:data:`FIRST_RATIO_C`)."""
-    return Refining(1.0, _ratio(a.err, s, FIRST_RATIO_C, FIRST_MIN_RATIO, 2.0), a.err, a.n, a)
+    f = _ratio(a.err, s, FIRST_RATIO_C, FIRST_MIN_RATIO, 2.0)
+    return Refining(1.0, f, a.err, a.n, a)
 
 
 @jit(inline="always")
