@@ -104,8 +104,9 @@ TOL_MARGIN = 1.0
 #: The first refinement march is ``FIRST_RATIO_C (e_err / aim)^(1/5)`` times finer than the
 #: first march (aim: REFINE_MARGIN of the target), at least FIRST_MIN_RATIO and at most 2
 #: (always 2 before 2026-12-05). The first march's e_err is tight on the points it refines
-#: (true / e_err 0.18-0.64, median 0.24-0.27, on the KK, general, linear and Sobol draws
-#: at tol 1e-8; 0.57 heavily damped, not the 0.02 of all points) and most exceed the target
+#: (true / e_err 0.18-0.64 from 5th percentile to largest, median 0.24-0.27, on the KK,
+#: general, linear and Sobol draws at tol 1e-8; 0.57 heavily damped, not the 0.02 of all
+#: points) and most exceed the target
 #: by little (median e_err 1.2-1.5 tol), so a march that lowers e_err below the aim at
 #: order 5 usually passes: the refined points' steps fell from 2.9-3.0 to 2.4-2.5 times
 #: their first march's (tol 1e-8), for 1.2-8% fewer steps in all with ORDER_MAX below
