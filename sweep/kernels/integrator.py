@@ -9,12 +9,15 @@ Per point (scaled parameters ``alpha, beta, gamma, g~``):
    ``(e, status, e_err)`` on the energy balance;
 3. a point whose error indicator exceeds the refinement target (near the stick/rebound
    boundary, where every error is amplified by about 1/e, or where the balance cannot yet
-   tell a stick from a rebound) is marched again at twice the resolution: the difference
-   over ``2^p - 1`` (Richardson, with the lowest order p seen before the asymptotic regime,
-   :data:`RICHARDSON_ORDER`), or the finer march's own estimate where that is larger, is
+   tell a stick from a rebound) is marched again at ``f = 1.15 (e_err / aim)^(1/5)``
+   times the resolution, between 1.3 and 2 (:data:`FIRST_RATIO_C`; aim: a fraction
+   :data:`REFINE_MARGIN` of the target): the difference over ``f^p - 1`` (Richardson, with
+   the lowest order p seen before the asymptotic regime, :data:`RICHARDSON_ORDER`, or the
+   order at which the two marches' own estimates fell where the coarser one is near the
+   target, :data:`ORDER_MAX`), or the finer march's own estimate where that is larger, is
    the error of the finer march, which is kept. If that
-   exceeds the target too, the point is marched again at ``f = 1.25 (e_err /
-   target)^(1/5)`` times the resolution (at most
+   exceeds the aim too, the point is marched again at ``f = 1.25 (e_err /
+   aim)^(1/5)`` times the resolution (at most
    :data:`MAX_REFINEMENT` in all, each march at least :data:`MIN_RATIO` times finer than
    the one before), and so on. A finer march that runs out of the step
    budget (a slow creep at g~ = 0 needs many steps at every resolution) is dropped: the
@@ -83,6 +86,8 @@ MIN_RATIO = 1.5
 #: points of heavily damped draws stay within 0.17 tol (0.05 at 0.25), the hard cases and
 #: the randomized audits within 0.75 of their e_err, for 3-6% fewer steps on those draws
 #: (0.3% on the core draws); 1.0 left e_err above tol on some points at tol = 1e-10.
+#: Since FIRST_RATIO_C and ORDER_MAX (2026-12-05): within 0.30 tol, 0.70 of e_err on the
+#: draws, 0.66 on the hard cases and 0.86 in the randomized audit (benchmarks/hp_audit.py).
 REFINE_MARGIN = 0.5
 #: Order assumed by Richardson's error estimate, ``|e_fine - e_coarse| / (ratio^p - 1)``:
 #: the ratio of successive errors is 2^5 only asymptotically (measured 2^4.3 to 2^5 near
@@ -97,6 +102,39 @@ RICHARDSON_ORDER = 2.25
 #: general draws at tol 1e-6 .. 1e-10, benchmarks/tol_margin.py), so every point left
 #: unrefined is within tol; 2 refined a third more points for nothing (before the share).
 TOL_MARGIN = 1.0
+#: The first refinement march is ``FIRST_RATIO_C (e_err / aim)^(1/5)`` times finer than the
+#: first march (aim: REFINE_MARGIN of the target), at least FIRST_MIN_RATIO and at most 2
+#: (always 2 before 2026-12-05). The first march's e_err is tight on the points it refines
+#: (true / e_err 0.18-0.64 from 5th percentile to largest, median 0.24-0.27, on the KK,
+#: general, linear and Sobol draws at tol 1e-8; 0.57 heavily damped, not the 0.02 of all
+#: points) and most exceed the target
+#: by little (median e_err 1.2-1.5 tol), so a march that lowers e_err below the aim at
+#: order 5 usually passes: the refined points' steps fell from 2.9-3.0 to 2.4-2.5 times
+#: their first march's (tol 1e-8), for 1.2-8% fewer steps in all with ORDER_MAX below
+#: (docs/speed/history.md, 2026-12-05). 1.1 and 1.25 saved 0.1-0.9% more on those draws
+#: but cost the hard cases 5.7% more than before at tol 1e-10 (third marches); 1.2 and
+#: 1.35 saved 0.1-0.9% less. At most 2: a first march far
+#: off (e_err 1e2-1e5 times the target near critical damping) went to 8 at once, where
+#: Richardson across the jump said 2e-5 at tol 1e-8 and no room was left (tests/
+#: test_integrator_accuracy.py::test_refined_estimate_stays_meaningful_near_critical_damping).
+FIRST_RATIO_C = 1.15
+FIRST_MIN_RATIO = 1.3
+#: Richardson takes the order at which the two marches' own estimates fell (up to
+#: ORDER_MAX, at least RICHARDSON_ORDER) where the coarser one's estimate is within
+#: ORDER_TRUSTED times the target: there the error is asymptotic (on the refined points
+#: of the draws, from the first march to twice its resolution, median orders 4.4-5.0 for
+#: the estimates and for the true errors at tol 1e-8 and 1e-10), and RICHARDSON_ORDER
+#: overstated the finer march's error 8 times at ratio 2: 72% of the heavily damped draw's
+#: refined points took a third march at tol 1e-10 (30% now). Farther off the estimates
+#: can fall faster than the errors: on grazing hard cases 50-3000 times the target at 13
+#: to 33 steps they fell at orders 3.6-4.1 where the errors fell at 2.8-3.2, and the
+#: finer march's error reached 1.5 times ``max(Richardson, own estimate)`` with the
+#: observed order (0.73 with RICHARDSON_ORDER, and with the guard). ORDER_MAX 4, below
+#: the method's 5: 5 let the refined damped points' true / e_err reach 0.79 in one march
+#: (0.70 at 4); 3 (without the guard) saved 0.8% on the damped draw at tol 1e-10 where 4
+#: saved 6%, and as much as 4 on the other draws.
+ORDER_MAX = 4.0
+ORDER_TRUSTED = 10.0
 
 _OK = int(Status.OK)
 _BUDGET = int(Status.BUDGET_EXHAUSTED)
@@ -177,9 +215,10 @@ def _solve_at(c, steps, s, budget, K, K2, Q):
 
 
 @jit(inline="always")
-def _richardson(fine, coarse, ratio):
+def _richardson(fine, coarse, ratio, target):
     """``(e_err, floor)`` of the finer of two marches ``ratio`` apart in resolution: their
-    difference over ``ratio^RICHARDSON_ORDER - 1`` plus, where e is the energy balance's,
+    difference over ``ratio^p - 1`` (``p`` from :func:`_order`, for refinement target
+    ``target``) plus, where e is the energy balance's,
     its rounding floor (~1e-15 in q, amplified by 1/e), which refinement cannot lower, and
     no less than the finer march's own estimate (which carries the rounding of e where e
     is the velocity's, :func:`sweep.kernels.outcome.cor_at_exit`).
@@ -198,8 +237,20 @@ def _richardson(fine, coarse, ratio):
     if fine.status != _OK or coarse.status != _OK:
         # The decision changed with the resolution: only the difference is an honest bound.
         return max(fine.err, abs(fine.e - coarse.e)), 0.0
-    rich = abs(fine.e - coarse.e) / (ratio ** RICHARDSON_ORDER - 1.0) + floor
+    p = _order(fine, coarse, ratio, target)
+    rich = abs(fine.e - coarse.e) / (ratio ** p - 1.0) + floor
     return max(rich, fine.err), floor
+
+
+@jit(inline="always")
+def _order(fine, coarse, ratio, target):
+    """Order of Richardson's estimate for two marches ``ratio`` apart: the one at which
+    their own estimates fell, where the coarser one's is near ``target``
+    (:data:`ORDER_TRUSTED`), else :data:`RICHARDSON_ORDER`."""
+    if not ORDER_TRUSTED * target >= coarse.err > fine.err > 0.0:
+        return RICHARDSON_ORDER
+    observed = math.log(coarse.err / fine.err) / math.log(ratio)
+    return min(max(observed, RICHARDSON_ORDER), ORDER_MAX)
 
 
 @jit(inline="always")
@@ -258,10 +309,18 @@ class Refining(NamedTuple):
 
 
 @jit(inline="always")
-def _refining(a):
+def _refining(a, s):
     """The refinement of a point whose first march ``a`` needs it (:func:`_needs_refining`):
-    checked first against a march at twice the resolution."""
-    return Refining(1.0, 2.0, a.err, a.n, a)
+    checked first against a march up to twice the resolution (:data:`FIRST_RATIO_C`)."""
+    f = _ratio(a.err, s, FIRST_RATIO_C, FIRST_MIN_RATIO, 2.0)
+    return Refining(1.0, f, a.err, a.n, a)
+
+
+@jit(inline="always")
+def _ratio(err, s, c, lo, hi):
+    """Ratio of the next march's resolution to the last one's, for an error ``err`` of the
+    last: ``c`` times the one that brings it to the aim at order 5, within ``[lo, hi]``."""
+    return min(max(c * (err / (REFINE_MARGIN * s.target)) ** 0.2, lo), hi)
 
 
 @jit(inline="always")
@@ -284,7 +343,7 @@ def _refine_update(r, a, s):
     n = r.n + a.n
     if a.status == _BUDGET:
         return True, _kept(r.last, n, r.err), r
-    err, floor = _richardson(a, r.last, r.f)
+    err, floor = _richardson(a, r.last, r.f, s.target)
     # Another march needs room for a ratio of at least MIN_RATIO: between marches closer
     # in resolution, Richardson divides a difference of rounding and non-asymptotic
     # wiggles by ratio^p - 1, near 0 (seen: e_err 1769 from marches 1.0000000000000002
@@ -292,7 +351,7 @@ def _refine_update(r, a, s):
     room = MAX_REFINEMENT / done
     if not (err - floor > aim and room >= MIN_RATIO and n < s.max_steps):
         return True, (a.e, a.t_f, a.u_max, n, a.status, err), r
-    f = min(max(1.25 * (err / aim) ** 0.2, MIN_RATIO), room)
+    f = _ratio(err, s, 1.25, MIN_RATIO, room)
     return False, (a.e, a.t_f, a.u_max, n, a.status, err), Refining(done, f, err, n, a)
 
 
@@ -300,7 +359,7 @@ def _refine_update(r, a, s):
 def _refined(c, s, a, K, K2, Q):
     """Refinement of a point whose first march ``a`` has an indicator above the target,
     one march after the other (:func:`_refine_update`)."""
-    r = _refining(a)
+    r = _refining(a, s)
     while True:
         steps, budget = _next_march(r, s)
         finished, out, r = _refine_update(r, _solve_at(c, steps, s, budget, K, K2, Q), s)
@@ -343,7 +402,7 @@ def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err
                      s.steps)
         if _needs_refining(s, a):
             where[k] = i
-            _put_refining(rows, k, _refining(a))
+            _put_refining(rows, k, _refining(a, s))
             k += 1
         else:
             _put(out, i, _as_output(a))
