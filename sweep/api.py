@@ -124,14 +124,15 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
         Scaled load g~ [1], >= 0, eq. (2).
     tol : float, optional
         The largest abs error of e wanted (e.g. 1e-6, 1e-8, 1e-10): the resolution comes from
-        the integrator's calibrated error model (:func:`sweep.kernels.stepsize.resolution`)
-        and points whose error estimate ``e_err`` exceeds ``tol`` are checked and refined
-        (``refine``). Without it: ``steps`` and a refinement target of 1e-9
-        (:data:`sweep.kernels.integrator.REFINE_TARGET`).
+        the integrator's calibrated error model (:func:`sweep.kernels.stepsize.resolution`;
+        a point predicted to dissipate little energy is marched first at a share of it,
+        :func:`sweep.kernels.stepsize.tol_share`) and points whose error estimate ``e_err``
+        exceeds ``tol`` are checked and refined (``refine``). Without it: ``steps`` and a
+        refinement target of 1e-9 (:data:`sweep.kernels.integrator.REFINE_TARGET`).
     steps : float, optional
         Resolution for experts: steps per half period of the stiffest linearised motion
         (default :data:`DEFAULT_STEPS`, or from ``tol``); the error falls like
-        ``steps**-5``.
+        ``steps**-5``. A given ``steps`` is every point's resolution, with ``tol`` too.
     rest_tol : float, default 1e-8
         Rest criterion ``max(|u - u-bar|, |v|) < rest_tol`` (report, Sec. 3).
     max_steps : int, optional

@@ -118,11 +118,13 @@ def _core_rebounds(n=24, seed=3):
     return a, b, gamma, gtilde
 
 
-@pytest.mark.parametrize("tol, rel", [(None, 1e-10), (1e-8, 1e-8)])
+@pytest.mark.parametrize("tol, rel", [(None, 1e-10), (1e-8, 2e-7)])
 def test_contact_time_and_compression_follow_the_march_at_tol(tol, rel):
     """t_f and u_max are read off the march that gave e (refinement looks at e alone): on a
-    core draw their relative errors against DOP853 stay below e's own tolerance (audit of
-    2026-12-04, docs/accuracy.md section 5: at most 2e-11 by default, 2e-9 at tol=1e-8)."""
+    core draw their relative errors against DOP853 follow its resolution (audit of
+    2026-12-04, docs/accuracy.md section 5: at most 2e-11 by default, 2e-9 at tol=1e-8 with
+    one resolution for all; since a nearly elastic point's first march takes a share of
+    it, sweep.kernels.stepsize.tol_share, as few as 16 steps at tol=1e-8: up to 1.2e-7)."""
     dop853_solve = pytest.importorskip("reference").dop853_solve
     pts = _core_rebounds()
     r = sweep.integrate(*pts, **({} if tol is None else {"tol": tol}))

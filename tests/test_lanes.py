@@ -100,7 +100,7 @@ def test_fewer_points_than_lanes_and_remainders(n):
                                          DEFAULT_MAX_STEPS))
 
 
-@pytest.mark.parametrize("kw", [{}, {"tol": 1e-8}, {"refine": False}])
+@pytest.mark.parametrize("kw", [{}, {"tol": 1e-8}, {"tol": 1e-10}, {"refine": False}])
 def test_array_calls_give_what_the_one_point_solve_gives(kw):
     # The array kernel runs first marches and every pass of refinement in lanes; the
     # one-point solve (solve_point, as the CUDA kernel runs it) marches one point at a time.

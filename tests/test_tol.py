@@ -146,3 +146,29 @@ def test_estimate_keeps_the_whole_defect_where_the_damping_is_not_resolved(alpha
     ref = reference.dop853_cor(alpha, beta, gamma, gtilde)
     r = sweep.integrate(alpha, beta, gamma, gtilde, tol=1e-8, refine=False)
     assert abs(float(r.e) - ref.e) <= float(r.e_err) - REF_SLACK["general"]
+
+
+# A nearly elastic and a lossy KK bounce: q predicted ~2e-4 and ~0.45
+# (sweep.kernels.stepsize.predicted_q).
+ELASTIC, LOSSY = (1.5, 1.5, 1e-4, 0.01), (1.5, 1.5, 0.1, 0.5)
+
+
+@pytest.mark.parametrize("tol", [1e-8, 1e-10])
+def test_a_nearly_elastic_bounce_is_first_marched_at_a_share_of_the_resolution(tol):
+    """With tol alone, a point's first march takes a share of the error model's resolution
+    that falls with the predicted dissipated energy (sweep.kernels.stepsize.tol_share); a
+    given steps= is every point's resolution, with tol or without."""
+    from sweep.kernels.stepsize import resolution
+    steps = resolution(tol)
+    for point, coarser in ((ELASTIC, True), (LOSSY, False)):
+        r = sweep.integrate(*point, tol=tol)
+        given = sweep.integrate(*point, steps=steps, tol=tol)
+        err = abs(float(r.e) - reference.dop853_cor(*point).e)
+        assert err <= tol and err <= float(r.e_err) + REF_SLACK["kk"], (point, err)
+        if coarser:
+            assert int(r.n_steps) < 0.75 * int(given.n_steps), (point, r.n_steps)
+        else:
+            assert int(r.n_steps) == int(given.n_steps) and float(r.e) == float(given.e)
+    # The default 96 steps without tol march as a given steps=96.
+    default = sweep.integrate(*ELASTIC)
+    assert int(default.n_steps) == int(sweep.integrate(*ELASTIC, steps=96).n_steps)

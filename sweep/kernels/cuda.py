@@ -103,12 +103,13 @@ def device_error() -> str | None:
 
 
 @cached_jit()
-def solve_one(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, target, K, K2, Q):
+def solve_one(alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, target, from_tol, K,
+              K2, Q):
     """:func:`solve_point` with the settings as scalars (kernel arguments). Compiled as a
     device function inside the CUDA kernel; cached on disk for the CUDA simulator, which
     calls it from Python (a fresh compile there costs a minute)."""
     return solve_point(alpha, beta, gamma, gtilde,
-                       Settings(steps, rest_tol, max_steps, target), K, K2, Q)
+                       Settings(steps, rest_tol, max_steps, target, from_tol), K, K2, Q)
 
 
 @cached_jit()
@@ -203,8 +204,8 @@ def work_order(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: n
 cuda = None
 
 
-def _solve(order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, target, e, t_f,
-           u_max, n_steps, status, e_err):
+def _solve(order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, target, from_tol,
+           e, t_f, u_max, n_steps, status, e_err):
     """The kernel: thread ``i = cuda.grid(1)`` integrates point ``j = order[i]`` by
     :func:`solve_point` (one thread a point; :func:`work_order`)."""
     i = cuda.grid(1)
@@ -214,7 +215,7 @@ def _solve(order, alpha, beta, gamma, gtilde, steps, rest_tol, max_steps, target
         K2 = cuda.local.array((N_STAGES, 3), float64)
         Q = cuda.local.array((2, N_DENSE), float64)
         r = solve_one(alpha[j], beta[j], gamma[j], gtilde[j], steps, rest_tol, max_steps,
-                      target, K, K2, Q)
+                      target, from_tol, K, K2, Q)
         e[j] = r[0]
         t_f[j] = r[1]
         u_max[j] = r[2]
@@ -234,7 +235,7 @@ def _kernel():
         # The simulator calls solve_one from one Python thread per CUDA thread: compile it
         # (or load it from the cache) here first; from 128 threads at once it took 4x longer.
         stages = np.empty((N_STAGES, 3))
-        solve_one(1.5, 1.5, 0.1, 0.1, 96.0, 1e-8, 10, 0.0, stages, stages.copy(),
+        solve_one(1.5, 1.5, 0.1, 0.1, 96.0, 1e-8, 10, 0.0, False, stages, stages.copy(),
                   np.empty((2, N_DENSE)))
     # Cached on disk beside the CPU kernels (keyed on the kernel sources; numba-cuda reads
     # numba's configuration when numba is installed, tests/test_cuda.py checks where):
@@ -251,11 +252,11 @@ def ptx(cc: tuple[int, int] = (8, 0)) -> str:
     device's compute capability: without a GPU, patch
     ``numba.cuda.dispatcher.get_current_device`` (as ``tests/test_cuda.py`` does)."""
     _kernel()
-    from numba import int8, int32, int64  # noqa: PLC0415
+    from numba import boolean, int8, int32, int64  # noqa: PLC0415
 
     a = float64[::1]
-    sig = (int32[::1], a, a, a, a, float64, float64, int64, float64, a, a, a, int32[::1],
-           int8[::1], a)
+    sig = (int32[::1], a, a, a, a, float64, float64, int64, float64, boolean, a, a, a,
+           int32[::1], int8[::1], a)
     code, _ = cuda.compile_ptx(_solve, sig, cc=cc)
     return code
 
@@ -297,7 +298,7 @@ class _Slot:
         blocks = math.ceil(m / THREADS_PER_BLOCK)
         kernel[blocks, THREADS_PER_BLOCK, self.stream](
             self.dev_order[:m], *(d[:m] for d in self.dev_in), s.steps, s.rest_tol,
-            s.max_steps, s.target, *(d[:m] for d in self.dev_out))
+            s.max_steps, s.target, s.from_tol, *(d[:m] for d in self.dev_out))
         for host, dev in zip(self.host_out, self.dev_out):
             dev[:m].copy_to_host(host[:m], stream=self.stream)
         self.pending = (lo, hi)

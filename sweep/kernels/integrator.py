@@ -5,8 +5,9 @@ Per point (scaled parameters ``alpha, beta, gamma, g~``):
 1. outcomes known without marching are taken from :mod:`sweep.kernels.regimes` (gamma = 0,
    the linear law's overdamped creep at g~ = 0, very deep load wells);
 2. otherwise the march (:mod:`sweep.kernels.march`) follows the impact through the phases
-   of Algorithm 1 and :mod:`sweep.kernels.outcome` turns where it ended into
-   ``(e, status, e_err)`` on the energy balance;
+   of Algorithm 1 (with ``tol``, a nearly elastic point at a share of the resolution,
+   :func:`sweep.kernels.stepsize.tol_share`) and :mod:`sweep.kernels.outcome` turns where
+   it ended into ``(e, status, e_err)`` on the energy balance;
 3. a point whose error indicator exceeds the refinement target (near the stick/rebound
    boundary, where every error is amplified by about 1/e, or where the balance cannot yet
    tell a stick from a rebound) is marched again at ``f = 1.15 (e_err / aim)^(1/5)``
@@ -37,7 +38,7 @@ never depend on the thread count, block, order or lanes: they are bit-identical 
 :func:`solve_point` (tests/test_lanes.py, tests/test_integrator_accuracy.py).
 
 Owns: the per-point solve, the refinement and the array kernels. May import: regimes,
-march, lanes, outcome, contact, stepsize, registry, the parallel policy.
+march, lanes, outcome, balance, contact, stepsize, registry, the parallel policy.
 """
 from __future__ import annotations
 
@@ -51,11 +52,11 @@ from sweep.kernels._parallel import map_blocks, parallel_allowed
 from sweep.kernels.contact import in_domain, make_law
 from sweep.kernels.lanes import N_ENDING, ending_at, march_lanes
 from sweep.kernels.march import march
-from sweep.kernels.balance import ROUNDING
+from sweep.kernels.balance import COARSE_STEPS, ROUNDING
 from sweep.kernels.outcome import decide, exit_time
 from sweep.kernels.regimes import (creeps_from_start, deep_well, kappa_zero_free,
                                     linear_overdamped, undamped)
-from sweep.kernels.stepsize import policy, resolution
+from sweep.kernels.stepsize import policy, resolution, tol_share
 from sweep.registry import METHODS, Status, kernel_fields
 
 __all__ = ["integrate_arrays", "solve_point", "Settings", "settings",
@@ -148,19 +149,23 @@ class Settings(NamedTuple):
     rest_tol: float     # the report's rest criterion
     max_steps: int      # budget per point, every march included
     target: float       # refinement target on e_err (0: never refine)
+    from_tol: bool      # steps came from tol: each point's first march takes a share of it
 
 
 def settings(steps=None, rest_tol=DEFAULT_REST_TOL, max_steps=DEFAULT_MAX_STEPS, refine=True,
              tol=None):
     """The :class:`Settings` of validated options: with ``tol`` and no ``steps`` the
     resolution comes from the error model (:func:`sweep.kernels.stepsize.resolution`) and
-    points whose error estimate exceeds ``tol / TOL_MARGIN`` are refined; without ``tol``,
-    ``steps`` (default :data:`DEFAULT_STEPS`) and :data:`REFINE_TARGET`."""
+    points whose error estimate exceeds ``tol / TOL_MARGIN`` are refined, each point's first
+    march at its share of that resolution (:func:`_first_steps`); without ``tol``,
+    ``steps`` (default :data:`DEFAULT_STEPS`) and :data:`REFINE_TARGET`. A given ``steps``
+    is every point's resolution, with or without ``tol``."""
     target = REFINE_TARGET if tol is None else tol / TOL_MARGIN
+    from_tol = steps is None and tol is not None
     if steps is None:
         steps = DEFAULT_STEPS if tol is None else resolution(tol)
     return Settings(float(steps), float(rest_tol), int(max_steps),
-                    float(target) if refine else 0.0)
+                    float(target) if refine else 0.0, from_tol)
 
 
 # Called, not inlined: once per point, and inlining it copied its IR at compile time.
@@ -264,6 +269,19 @@ def _without_march(alpha, beta, gamma, gtilde):
 
 
 @jit(inline="always")
+def _first_steps(c, s):
+    """Resolution of the first march of the law ``c``: where ``s.steps`` came from tol, its
+    share of it (:func:`sweep.kernels.stepsize.tol_share`), but not below COARSE_STEPS
+    (nor above ``s.steps``); else ``s.steps``."""
+    if not s.from_tol:
+        return s.steps
+    # Below COARSE_STEPS the estimate of q's error widens (sweep.kernels.balance): a floor
+    # of 8 steps sent 26% of the KK draw at tol 1e-6 to refinement (7% at one resolution),
+    # +6% steps; 12 saved 3% of KK there but cost linear 2% and 5% at 1e-8 against 16.
+    return max(s.steps * tol_share(c), min(s.steps, COARSE_STEPS))
+
+
+@jit(inline="always")
 def _needs_refining(s, a):
     """The first march's :class:`Result` ``a`` has an indicator above the target."""
     return s.target > 0.0 and a.err > s.target and a.status != _BUDGET
@@ -279,17 +297,18 @@ def _solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
 
     ``s`` is the :class:`Settings`; ``K``, ``K2``, ``Q`` are scratch arrays
     (:func:`sweep.kernels.march.scratch`). A point whose indicator exceeds ``s.target`` is
-    checked against a march at twice the resolution (Richardson); while that error
+    checked against a march up to twice its resolution (Richardson); while that error
     still exceeds the target, it is marched again, finer (module docstring).
     """
     decided, r = _without_march(alpha, beta, gamma, gtilde)
     if decided:
         return r
     c = make_law(alpha, beta, gamma, gtilde)
-    a = _solve_at(c, s.steps, s, s.max_steps, K, K2, Q)
+    steps = _first_steps(c, s)
+    a = _solve_at(c, steps, s, s.max_steps, K, K2, Q)
     if not _needs_refining(s, a):
         return _as_output(a)
-    return _refined(c, s, a, K, K2, Q)
+    return _refined(c, s, a, steps / s.steps, K, K2, Q)
 
 
 #: The per-point solve compiled once, for callers of single points (the CUDA kernel, tests).
@@ -298,8 +317,9 @@ solve_point = jit(entry=True)(_solve_point)
 
 class Refining(NamedTuple):
     """A point being refined, between two marches: the next march is at ``done * f`` times
-    the resolution with the budget left; ``last`` is the latest march's :class:`Result`,
-    ``err`` its error estimate, ``n`` the steps of every march so far."""
+    the resolution (``done``: the latest march's) with the budget left; ``last`` is the
+    latest march's :class:`Result`, ``err`` its error estimate, ``n`` the steps of every
+    march so far."""
 
     done: float
     f: float
@@ -309,11 +329,12 @@ class Refining(NamedTuple):
 
 
 @jit(inline="always")
-def _refining(a, s):
-    """The refinement of a point whose first march ``a`` needs it (:func:`_needs_refining`):
-    checked first against a march up to twice the resolution (:data:`FIRST_RATIO_C`)."""
+def _refining(a, s, p):
+    """The refinement of a point whose first march ``a``, at ``p`` times the resolution
+    (:func:`_first_steps`), needs it (:func:`_needs_refining`): checked first against a
+    march up to twice its resolution (:data:`FIRST_RATIO_C`)."""
     f = _ratio(a.err, s, FIRST_RATIO_C, FIRST_MIN_RATIO, 2.0)
-    return Refining(1.0, f, a.err, a.n, a)
+    return Refining(p, f, a.err, a.n, a)
 
 
 @jit(inline="always")
@@ -356,10 +377,10 @@ def _refine_update(r, a, s):
 
 
 @jit(inline="always")
-def _refined(c, s, a, K, K2, Q):
-    """Refinement of a point whose first march ``a`` has an indicator above the target,
-    one march after the other (:func:`_refine_update`)."""
-    r = _refining(a, s)
+def _refined(c, s, a, p, K, K2, Q):
+    """Refinement of a point whose first march ``a`` (at ``p`` times the resolution) has an
+    indicator above the target, one march after the other (:func:`_refine_update`)."""
+    r = _refining(a, s, p)
     while True:
         steps, budget = _next_march(r, s)
         finished, out, r = _refine_update(r, _solve_at(c, steps, s, budget, K, K2, Q), s)
@@ -385,9 +406,8 @@ def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err
     out = (e, t_f, u_max, n_steps, status, e_err)
     todo = _first_marches(alpha, beta, gamma, gtilde, out)
     m = todo.size
+    steps = _first_resolutions(alpha, beta, gamma, gtilde, todo, s)
     # Filled by hand: np.full compiles an implementation of its own (0.2 s of first call).
-    steps = np.empty(m)
-    steps[:] = s.steps
     budget = np.empty(m, np.int64)
     budget[:] = s.max_steps
     ends = _marched(alpha, beta, gamma, gtilde, todo, steps, budget, s)
@@ -399,10 +419,10 @@ def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err
     for j in range(m):
         i = todo[j]
         a = _decided(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), ending_at(ends, j),
-                     s.steps)
+                     steps[j])
         if _needs_refining(s, a):
             where[k] = i
-            _put_refining(rows, k, _refining(a, s))
+            _put_refining(rows, k, _refining(a, s, steps[j] / s.steps))
             k += 1
         else:
             _put(out, i, _as_output(a))
@@ -428,6 +448,16 @@ def _refining_at(rows, j):
     a = Result(R[j, 4], R[j, 5], R[j, 6], int(R[j, 7]), int(R[j, 8]), R[j, 9], R[j, 10],
                R[j, 11])
     return Refining(R[j, 0], R[j, 1], R[j, 2], int(R[j, 3]), a)
+
+
+@jit(inline="always")
+def _first_resolutions(alpha, beta, gamma, gtilde, todo, s):
+    """:func:`_first_steps` of each point ``todo[j]``."""
+    steps = np.empty(todo.size)
+    for j in range(todo.size):
+        i = todo[j]
+        steps[j] = _first_steps(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), s)
+    return steps
 
 
 @jit(inline="always")

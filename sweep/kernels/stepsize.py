@@ -48,7 +48,16 @@ exponent ``beta + ln(gamma) / ln(s_1)`` (s_1 the first step relative to the half
 a small gamma weakens it. Never finer than the grading of ``p = 3/2``; points whose
 damping cap can bind, and creeping beads (:func:`local_policy`), keep :func:`grading`.
 
-Owns: the step-size rule. May import: contact.
+Share of a tolerance's resolution
+---------------------------------
+With a tolerance the integrator marches each point first at ``resolution(tol)`` times a
+share of it (:func:`tol_share`): the march's error of e is about proportional to the
+energy dissipated q where the damping's integrand is resolved at u = 0
+(:func:`resolves_damping`; :mod:`sweep.kernels.balance`), so a nearly elastic bounce meets
+the error model's bound at a coarser resolution. q is predicted before the march from the
+report's first-order constants (:func:`predicted_q`).
+
+Owns: the step-size rule. May import: contact, special.
 """
 from __future__ import annotations
 
@@ -57,13 +66,14 @@ from typing import NamedTuple
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import damping_rate, elastic_frequency, umax_undamped, well_depth
+from sweep.kernels.special import first_order_constants, large_gtilde_constants
 
 __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "GRADE_EXPONENT",
            "MAX_DEPTH_FACTOR", "DEPTH_POWER", "NEWTON_FLOOR", "base_step",
            "damping_limited", "damping_step", "grading", "singular_exponent",
            "graded_by_exponent", "resolves_damping", "needs_grading", "graded_step",
            "StepPolicy", "policy", "local_policy", "first_guess", "resolution",
-           "ERROR_AT_GRADE_STEPS"]
+           "ERROR_AT_GRADE_STEPS", "predicted_q", "tol_share", "Q_REF", "P_MIN"]
 
 #: Ratio of step to distance from u = 0 inside the graded zone, at ``GRADE_STEPS``.
 GRADE_RATIO = 0.25
@@ -230,6 +240,56 @@ def resolution(tol: float) -> float:
     in every process that gave a ``tol``)."""
     steps = GRADE_STEPS * (ERROR_AT_GRADE_STEPS / tol) ** 0.2
     return min(max(steps, MIN_STEPS), MAX_STEPS)
+
+
+#: Predicted dissipated energy q from which a tolerance's first march takes the whole
+#: resolution (:func:`tol_share`). On 20,000-point KK, TTI, linear and general draws
+#: (benchmarks/tol_margin.py's, tol 1e-8 / 1e-10, against steps=500, tol=1e-12), 0.2 saved
+#: 21 / 27% of the steps of KK and TTI, 22 / 26% of linear, 4 / 5% of general, with the same
+#: refined fractions and the same largest errors as one resolution for all; 0.25 saved 1-2%
+#: more of KK, TTI and linear but only 3 / 1.5% of general (refined 4.9 / 9.4% against
+#: 2.9 / 3.3%) and let the largest linear error rise from 0.31 to 0.36 tol; 0.15 and 0.1
+#: saved less (KK 19 / 25%, 17 / 22%); 0.4 sent a sixth to half the points to refinement
+#: (KK +6% at 1e-10, linear +10 / +18%). docs/speed/history.md, 2026-12-05.
+Q_REF = 0.2
+#: Smallest share: 0.2, 0.3 and 0.4 took within 1.5% of each other's steps at tol 1e-10,
+#: the one of tol 1e-6, 1e-8, 1e-10 where it binds above the integrator's floor of 16 steps.
+P_MIN = 0.3
+
+
+@jit(inline="always")
+def predicted_q(c):
+    """The energy q = (1 - e^2)/2 a bead of the law ``c`` dissipates, predicted to first
+    order in gamma: ``gamma (C0 + C1 g~ + C g~^r)``, the small-g~ (22) and large-g~ (23)
+    forms of the report summed (:func:`sweep.kernels.special.first_order_constants`,
+    :func:`sweep.kernels.special.large_gtilde_constants`; 0.12 us a point, six lgamma).
+
+    Where it gives a share below 1 (q < Q_REF, :func:`resolves_damping`; against
+    steps=500, tol=1e-12), never below the true q on 20,000-point KK, TTI, Hertz and linear
+    draws (ratio 1.00 at least, median 1.04-1.07, at most 1.26-1.43), at least 0.93 of it
+    for SHC, 0.63 on the general draw (1% below 0.75) and 0.60 on the 65,536-point Sobol
+    design (1% below 0.72): where the two forms meet (g~ ~ 1) the sum overstates q, which
+    only costs steps. Either form alone, or their maximum, understated the KK draw's q up
+    to 10, 1e3 and 1.6 times."""
+    c0, c1 = first_order_constants(c.alpha, c.beta)
+    cl, r = large_gtilde_constants(c.alpha, c.beta)
+    return c.gamma * (c0 + c1 * c.gtilde + cl * c.gtilde ** r)
+
+
+# Called, not inlined: once per point (compile time).
+@jit()
+def tol_share(c):
+    """Share ``p`` of ``resolution(tol)`` for the first march of the law ``c`` with a
+    tolerance: ``clip((q / Q_REF)^(1/5), P_MIN, 1)`` for the predicted q
+    (:func:`predicted_q`) where :func:`resolves_damping` holds, else 1 (also where the
+    prediction is not finite). The march's error falls like ``steps^-5`` and is about
+    proportional to q there (module docstring)."""
+    if not resolves_damping(c):
+        return 1.0
+    q = predicted_q(c)
+    if not q < Q_REF:       # NaN and inf included
+        return 1.0
+    return max((q / Q_REF) ** 0.2, P_MIN) if q > 0.0 else P_MIN
 
 
 class StepPolicy(NamedTuple):
