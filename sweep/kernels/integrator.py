@@ -56,7 +56,7 @@ from sweep.kernels.balance import COARSE_STEPS, ROUNDING
 from sweep.kernels.outcome import decide, exit_time
 from sweep.kernels.regimes import (creeps_from_start, deep_well, kappa_zero_free,
                                     linear_overdamped, undamped)
-from sweep.kernels.stepsize import policy, resolution, tol_share
+from sweep.kernels.stepsize import policy, q_constants, resolution, resolves_damping, tol_share
 from sweep.registry import METHODS, Status, kernel_fields
 
 __all__ = ["integrate_arrays", "solve_point", "Settings", "settings",
@@ -269,16 +269,26 @@ def _without_march(alpha, beta, gamma, gtilde):
 
 
 @jit(inline="always")
-def _first_steps(c, s):
+def _first_steps(c, s, k):
     """Resolution of the first march of the law ``c``: where ``s.steps`` came from tol, its
-    share of it (:func:`sweep.kernels.stepsize.tol_share`), but not below COARSE_STEPS
-    (nor above ``s.steps``); else ``s.steps``."""
+    share of it (:func:`sweep.kernels.stepsize.tol_share`, ``k`` the exponents'
+    :func:`~sweep.kernels.stepsize.q_constants` where :func:`_needs_constants`), but not
+    below COARSE_STEPS (nor above ``s.steps``); else ``s.steps``."""
     if not s.from_tol:
         return s.steps
     # Below COARSE_STEPS the estimate of q's error widens (sweep.kernels.balance): a floor
     # of 8 steps sent 26% of the KK draw at tol 1e-6 to refinement (7% at one resolution),
     # +6% steps; 12 saved 3% of KK there but cost linear 2% and 5% at 1e-8 against 16.
-    return max(s.steps * tol_share(c), min(s.steps, COARSE_STEPS))
+    return max(s.steps * tol_share(c, k), min(s.steps, COARSE_STEPS))
+
+
+_NO_CONSTANTS = (math.nan, math.nan, math.nan, math.nan)
+
+
+@jit(inline="always")
+def _needs_constants(c, s):
+    """Whether :func:`_first_steps` reads the constants of ``c``'s exponents."""
+    return s.from_tol and resolves_damping(c)
 
 
 @jit(inline="always")
@@ -304,7 +314,8 @@ def _solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
     if decided:
         return r
     c = make_law(alpha, beta, gamma, gtilde)
-    steps = _first_steps(c, s)
+    k = q_constants(alpha, beta) if _needs_constants(c, s) else _NO_CONSTANTS
+    steps = _first_steps(c, s, k)
     a = _solve_at(c, steps, s, s.max_steps, K, K2, Q)
     if not _needs_refining(s, a):
         return _as_output(a)
@@ -452,11 +463,16 @@ def _refining_at(rows, j):
 
 @jit(inline="always")
 def _first_resolutions(alpha, beta, gamma, gtilde, todo, s):
-    """:func:`_first_steps` of each point ``todo[j]``."""
+    """:func:`_first_steps` of each point ``todo[j]``: the exponents' constants computed
+    again only where they change (a law's whole draw shares them)."""
     steps = np.empty(todo.size)
+    k, ka, kb = _NO_CONSTANTS, math.nan, math.nan
     for j in range(todo.size):
         i = todo[j]
-        steps[j] = _first_steps(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), s)
+        c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
+        if _needs_constants(c, s) and not (c.alpha == ka and c.beta == kb):
+            k, ka, kb = q_constants(c.alpha, c.beta), c.alpha, c.beta
+        steps[j] = _first_steps(c, s, k)
     return steps
 
 

@@ -73,7 +73,8 @@ __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "GRADE_EXPONENT",
            "damping_limited", "damping_step", "grading", "singular_exponent",
            "graded_by_exponent", "resolves_damping", "needs_grading", "graded_step",
            "StepPolicy", "policy", "local_policy", "first_guess", "resolution",
-           "ERROR_AT_GRADE_STEPS", "predicted_q", "tol_share", "Q_REF", "P_MIN"]
+           "ERROR_AT_GRADE_STEPS", "q_constants", "predicted_q", "tol_share", "Q_REF",
+           "P_MIN"]
 
 #: Ratio of step to distance from u = 0 inside the graded zone, at ``GRADE_STEPS``.
 GRADE_RATIO = 0.25
@@ -257,12 +258,24 @@ Q_REF = 0.2
 P_MIN = 0.3
 
 
+# Called, not inlined: its one compiled copy gives every caller (the array kernel, one
+# point's solve, the CUDA kernel) the same bits.
+@jit()
+def q_constants(alpha, beta):
+    """``(C0, C1, C, r)`` of the exponents ``(alpha, beta)`` for :func:`predicted_q`: (22)'s
+    and (23)'s constants (:func:`sweep.kernels.special.first_order_constants`,
+    :func:`sweep.kernels.special.large_gtilde_constants`; 0.12 us, six lgamma, so the
+    array kernel computes them once for consecutive points of the same exponents)."""
+    c0, c1 = first_order_constants(alpha, beta)
+    cl, r = large_gtilde_constants(alpha, beta)
+    return c0, c1, cl, r
+
+
 @jit(inline="always")
-def predicted_q(c):
+def predicted_q(c, k):
     """The energy q = (1 - e^2)/2 a bead of the law ``c`` dissipates, predicted to first
     order in gamma: ``gamma (C0 + C1 g~ + C g~^r)``, the small-g~ (22) and large-g~ (23)
-    forms of the report summed (:func:`sweep.kernels.special.first_order_constants`,
-    :func:`sweep.kernels.special.large_gtilde_constants`; 0.12 us a point, six lgamma).
+    forms of the report summed, ``k`` the exponents' :func:`q_constants`.
 
     Where it gives a share below 1 (q < Q_REF, :func:`resolves_damping`; against
     steps=500, tol=1e-12), never below the true q on 20,000-point KK, TTI, Hertz and linear
@@ -271,22 +284,21 @@ def predicted_q(c):
     design (1% below 0.72): where the two forms meet (g~ ~ 1) the sum overstates q, which
     only costs steps. Either form alone, or their maximum, understated the KK draw's q up
     to 10, 1e3 and 1.6 times."""
-    c0, c1 = first_order_constants(c.alpha, c.beta)
-    cl, r = large_gtilde_constants(c.alpha, c.beta)
+    c0, c1, cl, r = k
     return c.gamma * (c0 + c1 * c.gtilde + cl * c.gtilde ** r)
 
 
 # Called, not inlined: once per point (compile time).
 @jit()
-def tol_share(c):
+def tol_share(c, k):
     """Share ``p`` of ``resolution(tol)`` for the first march of the law ``c`` with a
-    tolerance: ``clip((q / Q_REF)^(1/5), P_MIN, 1)`` for the predicted q
-    (:func:`predicted_q`) where :func:`resolves_damping` holds, else 1 (also where the
+    tolerance: ``clip((q / Q_REF)^(1/5), P_MIN, 1)`` for the q predicted with the constants
+    ``k`` (:func:`predicted_q`) where :func:`resolves_damping` holds, else 1 (also where the
     prediction is not finite). The march's error falls like ``steps^-5`` and is about
     proportional to q there (module docstring)."""
     if not resolves_damping(c):
         return 1.0
-    q = predicted_q(c)
+    q = predicted_q(c, k)
     if not q < Q_REF:       # NaN and inf included
         return 1.0
     return max((q / Q_REF) ** 0.2, P_MIN) if q > 0.0 else P_MIN
