@@ -13,14 +13,15 @@ march's path, ``q = int gamma u^beta |v| du``, and D is how far that path straye
 energy: a stray dE moves ``|v|`` by ``dE / |v|``, so q errs by about ``q |D| / swing2``,
 not ``|D| / swing2`` (measured: true error over e_err fell in proportion to q, a median of
 0.002 at q < 0.01 and 0.26 at q ~ 0.4 on the KK draw). :func:`defect_share` weighs the
-defect by q where the damping's own integrand is resolved at u = 0, so that the path is
-all that errs (:func:`sweep.kernels.stepsize.resolves_damping`).
+defect by q. That needs the damping's own integrand resolved at u = 0, so that the path is
+all that errs: the grading near u = 0 follows beta as well as alpha
+(:func:`sweep.kernels.stepsize.singular_exponent`).
 
 Both the march (whose energy rule stops a bead only once ``H < -dq``, so that the stick is
 certain) and the decision rules (:mod:`sweep.kernels.outcome`) read it here; the march
 takes the whole defect (share 1): where it asks, q is near 1/2 anyway.
 
-Owns: dq and its calibration. May import: contact, stepsize.
+Owns: dq and its calibration. May import: contact.
 """
 from __future__ import annotations
 
@@ -28,7 +29,6 @@ import math
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import potential, well_depth
-from sweep.kernels.stepsize import resolves_damping
 
 __all__ = ["q_error", "swing2", "defect_share", "KAPPA_Q", "KAPPA_STEPS", "COARSE_STEPS",
            "ROUNDING", "PATH_WEIGHT"]
@@ -66,7 +66,10 @@ ROUNDING = 4e-16
 #: applies; at one fixed resolution of the general draw 0.67 against 0.60), and the steps
 #: fall by 0.5-6% (KK, TTI, general) and 8-16% (linear): points refined only for the
 #: defect of a nearly elastic bounce are not (docs/accuracy.md). At 2 the largest rose to
-#: 0.65, and without resolves_damping's condition to 5.9.
+#: 0.65. Until the grading followed beta whatever gamma
+#: (:func:`sweep.kernels.stepsize.singular_exponent`), the share applied only where beta was
+#: an integer or alpha at most 3/2: elsewhere (alpha 2.5-3, beta 1.1-1.3, gamma ~ 1e-4)
+#: the dissipation integral's own error at u = 0 left true errors up to 5.9 times e_err.
 PATH_WEIGHT = 3.0
 
 
@@ -96,10 +99,7 @@ def q_error(c, u, v, h, lq, n, steps, share):
 
 
 @jit(inline="always")
-def defect_share(c, h):
+def defect_share(h):
     """Share of the energy defect that is q's error where the march ended with ``h = 1/2
-    - q``: ``min(1, PATH_WEIGHT q)`` where the path is all that errs
-    (:func:`sweep.kernels.stepsize.resolves_damping`), else 1 (module docstring)."""
-    if not resolves_damping(c):
-        return 1.0
+    - q``: ``min(1, PATH_WEIGHT q)`` (module docstring)."""
     return min(1.0, PATH_WEIGHT * max(0.5 - h, 0.0))

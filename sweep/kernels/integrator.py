@@ -56,7 +56,7 @@ from sweep.kernels.balance import COARSE_STEPS, ROUNDING
 from sweep.kernels.outcome import decide, exit_time
 from sweep.kernels.regimes import (creeps_from_start, deep_well, kappa_zero_free,
                                     linear_overdamped, undamped)
-from sweep.kernels.stepsize import policy, q_constants, resolution, resolves_damping, tol_share
+from sweep.kernels.stepsize import policy, q_constants, resolution, tol_share
 from sweep.registry import METHODS, Status, kernel_fields
 
 __all__ = ["integrate_arrays", "solve_point", "Settings", "settings",
@@ -272,8 +272,8 @@ def _without_march(alpha, beta, gamma, gtilde):
 def _first_steps(c, s, k):
     """Resolution of the first march of the law ``c``: where ``s.steps`` came from tol, its
     share of it (:func:`sweep.kernels.stepsize.tol_share`, ``k`` the exponents'
-    :func:`~sweep.kernels.stepsize.q_constants` where :func:`_needs_constants`), but not
-    below COARSE_STEPS (nor above ``s.steps``); else ``s.steps``."""
+    :func:`~sweep.kernels.stepsize.q_constants` where ``s.from_tol``), but not below
+    COARSE_STEPS (nor above ``s.steps``); else ``s.steps``."""
     if not s.from_tol:
         return s.steps
     # Below COARSE_STEPS the estimate of q's error widens (sweep.kernels.balance): a floor
@@ -283,12 +283,6 @@ def _first_steps(c, s, k):
 
 
 _NO_CONSTANTS = (math.nan, math.nan, math.nan, math.nan)
-
-
-@jit(inline="always")
-def _needs_constants(c, s):
-    """Whether :func:`_first_steps` reads the constants of ``c``'s exponents."""
-    return s.from_tol and resolves_damping(c)
 
 
 @jit(inline="always")
@@ -314,7 +308,7 @@ def _solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
     if decided:
         return r
     c = make_law(alpha, beta, gamma, gtilde)
-    k = q_constants(alpha, beta) if _needs_constants(c, s) else _NO_CONSTANTS
+    k = q_constants(alpha, beta) if s.from_tol else _NO_CONSTANTS
     steps = _first_steps(c, s, k)
     a = _solve_at(c, steps, s, s.max_steps, K, K2, Q)
     if not _needs_refining(s, a):
@@ -470,7 +464,7 @@ def _first_resolutions(alpha, beta, gamma, gtilde, todo, s):
     for j in range(todo.size):
         i = todo[j]
         c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
-        if _needs_constants(c, s) and not (c.alpha == ka and c.beta == kb):
+        if s.from_tol and not (c.alpha == ka and c.beta == kb):
             k, ka, kb = q_constants(c.alpha, c.beta), c.alpha, c.beta
         steps[j] = _first_steps(c, s, k)
     return steps

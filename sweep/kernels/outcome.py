@@ -189,7 +189,7 @@ def decide(c, end, steps):
     the energy balance's and the velocity's values of e where the bead left (NaN where not
     defined)."""
     h = end.h
-    dq = q_error(c, end.u, end.v, h, end.lq, end.n, steps, defect_share(c, h))
+    dq = q_error(c, end.u, end.v, h, end.lq, end.n, steps, defect_share(h))
     if end.kind == EXIT:
         return _exit(c, end, h, dq, swing2(c))
     if end.kind == TROUGH:

@@ -43,17 +43,17 @@ order 5 (tests/test_convergence.py).
 That grading is set for the singular exponent ``p = 3/2`` (KK, Hertz). A larger p needs
 less (:func:`graded_by_exponent`): a step s at u = 0 errs like ``s^(p+1)`` and the graded
 zone like ``rho^(5-p) h^(p+1)``, so rho and first are widened to keep the error of
-``p = 3/2`` at the same h. The damping's term ``gamma tau^(beta+1)`` counts as the
-exponent ``beta + ln(gamma) / ln(s_1)`` (s_1 the first step relative to the half period):
-a small gamma weakens it. Never finer than the grading of ``p = 3/2``; points whose
+``p = 3/2`` at the same h. The damping's term counts at beta whatever gamma: the
+dissipation integral that gives e errs by its relative error (:func:`singular_exponent`).
+Never finer than the grading of ``p = 3/2``; points whose
 damping cap can bind, and creeping beads (:func:`local_policy`), keep :func:`grading`.
 
 Share of a tolerance's resolution
 ---------------------------------
 With a tolerance the integrator marches each point first at ``resolution(tol)`` times a
 share of it (:func:`tol_share`): the march's error of e is about proportional to the
-energy dissipated q where the damping's integrand is resolved at u = 0
-(:func:`resolves_damping`; :mod:`sweep.kernels.balance`), so a nearly elastic bounce meets
+energy dissipated q, the damping's integrand being graded at u = 0
+(:func:`singular_exponent`; :mod:`sweep.kernels.balance`), so a nearly elastic bounce meets
 the error model's bound at a coarser resolution. q is predicted before the march from the
 report's first-order constants (:func:`predicted_q`).
 
@@ -71,7 +71,7 @@ from sweep.kernels.special import first_order_constants, large_gtilde_constants
 __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "GRADE_EXPONENT",
            "MAX_DEPTH_FACTOR", "DEPTH_POWER", "NEWTON_FLOOR", "base_step",
            "damping_limited", "damping_step", "grading", "singular_exponent",
-           "graded_by_exponent", "resolves_damping", "needs_grading", "graded_step",
+           "graded_by_exponent", "needs_grading", "graded_step",
            "StepPolicy", "policy", "local_policy", "first_guess", "resolution",
            "ERROR_AT_GRADE_STEPS", "q_constants", "predicted_q", "tol_share", "Q_REF",
            "P_MIN"]
@@ -106,17 +106,22 @@ def grading(steps):
 
 
 @jit(inline="always")
-def singular_exponent(c, s1):
+def singular_exponent(c):
     """Exponent p of the weakest non-smooth term of the law ``c`` at u = 0 (a step s
-    across it errs like ``s^(p+1)``): alpha, or the damping's beta weighted by gamma,
-    ``beta + ln(gamma) / ln(s1)`` for the relative first step ``s1`` (``gamma s^(beta+1) =
-    s^(p+1)`` at s = s1); inf where both terms are smooth. Where alpha is at most
-    :data:`GRADE_EXPONENT`, alpha: the grading is then :func:`grading`'s whatever beta's
-    term is, and its weight is not worked out (two logs a march: KK took 0.3-0.6% longer
-    with them, serial, than before the widening; level without)."""
+    across it errs like ``s^(p+1)``): alpha, or beta where the damping's term is less smooth
+    (gamma > 0); inf where both terms are smooth. Where alpha is at most
+    :data:`GRADE_EXPONENT`, alpha: the grading is then :func:`grading`'s whatever beta.
+
+    beta counts at its own exponent, not weakened by a small gamma (as ``beta + ln(gamma)
+    / ln(s_1)`` until 2026-12-05): the path hardly feels the term, but the dissipation
+    integral q that gives e errs by its relative error whatever gamma, and e's error is
+    about proportional to q only where that integrand is resolved (docs/accuracy.md,
+    section 2). Graded for beta, the general-exponent draw took 16% fewer steps at tol
+    1e-8 (22% at 1e-10) and the Sobol design 8% (9%): both shares of the error estimate and
+    of the resolution then apply to every point (docs/speed/history.md, 2026-12-05)."""
     p = c.alpha if c.alpha != math.floor(c.alpha) else math.inf
     if p > GRADE_EXPONENT and c.beta < p and c.beta != math.floor(c.beta) and c.gamma > 0.0:
-        p = min(p, c.beta + math.log(min(c.gamma, 1.0)) / math.log(s1))
+        p = c.beta
     return p
 
 
@@ -137,7 +142,7 @@ def graded_by_exponent(c, steps):
     1e-8; rho capped at 0.5 instead of 1 saved 2.7%."""
     rho, first = grading(steps)
     x = math.pi / steps
-    p = min(singular_exponent(c, first * x), 4.0)
+    p = min(singular_exponent(c), 4.0)
     if p <= GRADE_EXPONENT:
         return rho, first
     f = (first * x) ** ((GRADE_EXPONENT + 1.0) / (p + 1.0)) / x
@@ -147,20 +152,6 @@ def graded_by_exponent(c, steps):
     # time 4,900 ulps off the re-step's root for (2.5, 1, 0.3, 0.3).
     first_max = min(MAX_FIRST, FIRST_CAP * steps / MIN_STEPS)
     return min(max(r, rho), MAX_RATIO), min(max(f, first), first_max)
-
-
-@jit(inline="always")
-def resolves_damping(c):
-    """True where the damping's integrand ``gamma u^beta v^2`` is resolved at u = 0 as
-    finely as the path: smooth there (beta an integer, or gamma = 0), or graded by
-    :func:`grading` (alpha not an integer and at most :data:`GRADE_EXPONENT`). Elsewhere
-    the grading follows alpha, or beta weighted by gamma (:func:`singular_exponent`), while
-    the dissipation integral's relative error follows beta alone: at tol 1e-8, weighing the
-    energy defect by q there (:func:`sweep.kernels.balance.defect_share`) left true errors
-    of e up to 5.9 times e_err (alpha 2.5-3, beta 1.1-1.3, gamma ~ 1e-4, e ~ 1)."""
-    if c.beta == math.floor(c.beta) or c.gamma == 0.0:
-        return True
-    return c.alpha != math.floor(c.alpha) and c.alpha <= GRADE_EXPONENT
 
 
 #: Cap of the load factor D (beyond it roundoff in the state dominates).
@@ -277,8 +268,7 @@ def predicted_q(c, k):
     order in gamma: ``gamma (C0 + C1 g~ + C g~^r)``, the small-g~ (22) and large-g~ (23)
     forms of the report summed, ``k`` the exponents' :func:`q_constants`.
 
-    Where it gives a share below 1 (q < Q_REF, :func:`resolves_damping`; against
-    steps=500, tol=1e-12), never below the true q on 20,000-point KK, TTI, Hertz and linear
+    Where it gives a share below 1 (q < Q_REF; against steps=500, tol=1e-12), never below the true q on 20,000-point KK, TTI, Hertz and linear
     draws (ratio 1.00 at least, median 1.04-1.07, at most 1.26-1.43), at least 0.93 of it
     for SHC, 0.63 on the general draw (1% below 0.75) and 0.60 on the 65,536-point Sobol
     design (1% below 0.72): where the two forms meet (g~ ~ 1) the sum overstates q, which
@@ -293,11 +283,8 @@ def predicted_q(c, k):
 def tol_share(c, k):
     """Share ``p`` of ``resolution(tol)`` for the first march of the law ``c`` with a
     tolerance: ``clip((q / Q_REF)^(1/5), P_MIN, 1)`` for the q predicted with the constants
-    ``k`` (:func:`predicted_q`) where :func:`resolves_damping` holds, else 1 (also where the
-    prediction is not finite). The march's error falls like ``steps^-5`` and is about
-    proportional to q there (module docstring)."""
-    if not resolves_damping(c):
-        return 1.0
+    ``k`` (:func:`predicted_q`), 1 where the prediction is not finite. The march's error
+    falls like ``steps^-5`` and is about proportional to q (module docstring)."""
     q = predicted_q(c, k)
     if not q < Q_REF:       # NaN and inf included
         return 1.0
