@@ -127,8 +127,10 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
         the integrator's calibrated error model (:func:`sweep.kernels.stepsize.resolution`;
         a point predicted to dissipate little energy is marched first at a share of it,
         :func:`sweep.kernels.stepsize.tol_share`) and points whose error estimate ``e_err``
-        exceeds ``tol`` are checked and refined (``refine``). Without it: ``steps`` and a
-        refinement target of 1e-9 (:data:`sweep.kernels.integrator.REFINE_TARGET`).
+        exceeds ``tol`` are checked and refined (``refine``). ``tol`` bounds e; ``t_f`` and
+        ``u_max`` follow the march (relative errors up to ~1e-7 at ``tol=1e-8``,
+        docs/accuracy.md section 5). Without it: ``steps`` and a refinement target of 1e-9
+        (:data:`sweep.kernels.integrator.REFINE_TARGET`).
     steps : float, optional
         Resolution for experts: steps per half period of the stiffest linearised motion
         (default :data:`DEFAULT_STEPS`, or from ``tol``); the error falls like
@@ -139,8 +141,8 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
         Step budget per point, every march included (default :data:`DEFAULT_MAX_STEPS`).
     refine : bool, default True
         Check a point whose error indicator exceeds the refinement target
-        (:data:`sweep.kernels.integrator.REFINE_TARGET`) against a companion march at half
-        the resolution and march it again, finer, until its Richardson error is below the
+        (:data:`sweep.kernels.integrator.REFINE_TARGET`, or ``tol``) against a march 1.3 to
+        2 times finer and march it again, finer, until its Richardson error is below the
         target (near the stick/rebound boundary, where errors are amplified by 1/e). False:
         exactly one fixed-step march per point (e.g. to measure the method's order).
     parallel : bool, optional
