@@ -108,13 +108,12 @@ TOL_MARGIN = 1.0
 #: (always 2 before 2026-12-05). The first march's e_err is tight on the points it refines
 #: (true / e_err 0.18-0.64 from 5th percentile to largest, median 0.24-0.27, on the KK,
 #: general, linear and Sobol draws at tol 1e-8; 0.57 heavily damped, not the 0.02 of all
-#: points) and most exceed the target
-#: by little (median e_err 1.2-1.5 tol), so a march that lowers e_err below the aim at
-#: order 5 usually passes: the refined points' steps fell from 2.9-3.0 to 2.4-2.5 times
-#: their first march's (tol 1e-8), for 1.2-8% fewer steps in all with ORDER_MAX below
-#: (docs/speed/history.md, 2026-12-05). 1.1 and 1.25 saved 0.1-0.9% more on those draws
-#: but cost the hard cases 5.7% more than before at tol 1e-10 (third marches); 1.2 and
-#: 1.35 saved 0.1-0.9% less. At most 2: a first march far
+#: points) and most exceed the target by little (median e_err 1.2-1.5 tol), so a march
+#: that lowers e_err below the aim at order 5 usually passes: the refined points' steps
+#: fell from 2.9-3.0 to 2.4-2.5 times their first march's (tol 1e-8), for 1.2-8% fewer
+#: steps in all with ORDER_MAX below (docs/speed/history.md, 2026-12-05). 1.1 and 1.25
+#: saved 0.1-0.9% more on those draws but cost the hard cases 5.7% more than before at tol
+#: 1e-10 (third marches); 1.2 and 1.35 saved 0.1-0.9% less. At most 2: a first march far
 #: off (e_err 1e2-1e5 times the target near critical damping) went to 8 at once, where
 #: Richardson across the jump said 2e-5 at tol 1e-8 and no room was left (tests/
 #: test_integrator_accuracy.py::test_refined_estimate_stays_meaningful_near_critical_damping).
