@@ -242,7 +242,11 @@ def resolution(tol: float) -> float:
 #: more of KK, TTI and linear but only 3 / 1.5% of general (refined 4.9 / 9.4% against
 #: 2.9 / 3.3%) and let the largest linear error rise from 0.31 to 0.36 tol; 0.15 and 0.1
 #: saved less (KK 19 / 25%, 17 / 22%); 0.4 sent a sixth to half the points to refinement
-#: (KK +6% at 1e-10, linear +10 / +18%). docs/speed/history.md, 2026-12-05.
+#: (KK +6% at 1e-10, linear +10 / +18%). docs/speed/history.md, 2026-12-05. Again with
+#: the grading by beta (:func:`singular_exponent`): 0.25 saved 1.5 / 2.3% more of KK and
+#: 1.2 / 1.3% of the Sobol design, but cost general 1.0% at 1e-10 and let the largest
+#: linear error left unrefined rise from 0.31 to 0.37 of tol; at 0.3, 39-59% of the linear
+#: draw was refined.
 Q_REF = 0.2
 #: Smallest share: 0.2, 0.3 and 0.4 took within 1.5% of each other's steps at tol 1e-10,
 #: the one of tol 1e-6, 1e-8, 1e-10 where it binds above the integrator's floor of 16 steps.
