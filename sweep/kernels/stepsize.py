@@ -272,8 +272,9 @@ def predicted_q(c, k):
     order in gamma: ``gamma (C0 + C1 g~ + C g~^r)``, the small-g~ (22) and large-g~ (23)
     forms of the report summed, ``k`` the exponents' :func:`q_constants`.
 
-    Where it gives a share below 1 (q < Q_REF; against steps=500, tol=1e-12), never below the true q on 20,000-point KK, TTI, Hertz and linear
-    draws (ratio 1.00 at least, median 1.04-1.07, at most 1.26-1.43), at least 0.93 of it
+    Where it gives a share below 1 (q < Q_REF; against steps=500, tol=1e-12), never below
+    the true q on 20,000-point KK, TTI, Hertz and linear draws (ratio 1.00 at least, median
+    1.04-1.07, at most 1.26-1.43), at least 0.93 of it
     for SHC, 0.63 on the general draw (1% below 0.75) and 0.60 on the 65,536-point Sobol
     design (1% below 0.72): where the two forms meet (g~ ~ 1) the sum overstates q, which
     only costs steps. Either form alone, or their maximum, understated the KK draw's q up
