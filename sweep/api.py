@@ -126,6 +126,8 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
         The largest abs error of e wanted (e.g. 1e-6, 1e-8, 1e-10): the resolution comes from
         the integrator's calibrated error model (:func:`sweep.kernels.stepsize.resolution`;
         a point predicted to dissipate little energy is marched first at a share of it,
+        one predicted to stick at the floor of 16 steps, then at its share where that
+        did not settle it,
         :func:`sweep.kernels.stepsize.tol_share`) and points whose error estimate ``e_err``
         exceeds ``tol`` are checked and refined (``refine``). ``tol`` bounds e; ``t_f`` and
         ``u_max`` follow the march (relative errors up to ~1e-7 at ``tol=1e-8``,

@@ -175,3 +175,43 @@ def test_a_nearly_elastic_bounce_is_first_marched_at_a_share_of_the_resolution(t
     # The default 96 steps without tol march as a given steps=96.
     default = sweep.integrate(*ELASTIC)
     assert int(default.n_steps) == int(sweep.integrate(*ELASTIC, steps=96).n_steps)
+
+
+# A KK bounce predicted to dissipate q ~ 2.2 (sweep.kernels.stepsize.predicted_q): it sticks.
+STICK = (1.5, 1.5, 0.5, 0.5)
+# Predicted q >= 1 (gamma < 1), yet they leave: a point of the Sobol design that leaves with
+# e ~ 0.50, and a linear-law point near grazing (e ~ 7e-4) that, refined from the 16-step
+# probe, ended with e_err 4.7e-9 at tol=1e-10 (Richardson across a ratio of 21).
+LEAVES = [(1.0240885708481073, 2.369977243244648, 0.7094941363788713, 0.03790060058236122),
+          (1.0, 1.0, 0.9263237296506217, 0.1)]
+
+
+@pytest.mark.parametrize("tol", [1e-8, 1e-10])
+def test_a_predicted_stick_is_settled_by_a_march_at_the_floor(tol):
+    """A bead predicted to stick (q >= Q_STICK) is first marched at the integrator's floor
+    of 16 steps: it sticks there with certainty (e = 0, e_err = 0), for fewer steps than a
+    march at its share; its u_max follows that march (docs/accuracy.md, section 5)."""
+    from sweep.kernels.stepsize import resolution
+    ref = reference.dop853_solve(*STICK)
+    r = sweep.integrate(*STICK, tol=tol)
+    given = sweep.integrate(*STICK, steps=resolution(tol), tol=tol)
+    assert ref["status"] in (reference.STUCK, reference.AT_REST)
+    assert float(r.e) == 0.0 and float(r.e_err) == 0.0 and bool(r.sticks)
+    assert int(r.n_steps) < 0.75 * int(given.n_steps), (r.n_steps, given.n_steps)
+    assert abs(float(r.u_max) / ref["u_max"] - 1.0) < 2e-7
+
+
+@pytest.mark.parametrize("point", LEAVES)
+@pytest.mark.parametrize("tol", [1e-8, 1e-10])
+def test_a_bead_wrongly_predicted_to_stick_still_meets_tol(point, tol):
+    """Where the march at the floor does not settle a predicted stick (here the bead
+    leaves), the point is marched at its share as without it, and refined from there: the
+    error and e_err stay within tol."""
+    if point[:2] == (1.0, 1.0):
+        e_ref = reference.linear_cor(*point[2:]).e
+    else:
+        e_ref = reference.dop853_cor(*point).e
+    r = sweep.integrate(*point, tol=tol)
+    err = abs(float(r.e) - e_ref)
+    assert e_ref > 0.0 and int(r.status) == reference.OK
+    assert float(r.e_err) <= tol and err <= tol and err <= float(r.e_err) + REF_SLACK["kk"]

@@ -5,9 +5,11 @@ Per point (scaled parameters ``alpha, beta, gamma, g~``):
 1. outcomes known without marching are taken from :mod:`sweep.kernels.regimes` (gamma = 0,
    the linear law's overdamped creep at g~ = 0, very deep load wells);
 2. otherwise the march (:mod:`sweep.kernels.march`) follows the impact through the phases
-   of Algorithm 1 (with ``tol``, a nearly elastic point at a share of the resolution,
-   :func:`sweep.kernels.stepsize.tol_share`) and :mod:`sweep.kernels.outcome` turns where
-   it ended into ``(e, status, e_err)`` on the energy balance;
+   of Algorithm 1 (with ``tol``, a nearly elastic point at a share of the resolution, a
+   predicted stick first at the floor and, where that does not settle it, at its share:
+   :func:`sweep.kernels.stepsize.tol_share`, :func:`_first_steps`) and
+   :mod:`sweep.kernels.outcome` turns where it ended into ``(e, status, e_err)`` on the
+   energy balance;
 3. a point whose error indicator exceeds the refinement target (near the stick/rebound
    boundary, where every error is amplified by about 1/e, or where the balance cannot yet
    tell a stick from a rebound) is marched again at ``f = 1.15 (e_err / aim)^(1/5)``
@@ -268,17 +270,38 @@ def _without_march(alpha, beta, gamma, gtilde):
 
 
 @jit(inline="always")
-def _first_steps(c, s, k):
-    """Resolution of the first march of the law ``c``: where ``s.steps`` came from tol, its
-    share of it (:func:`sweep.kernels.stepsize.tol_share`, ``k`` the exponents'
-    :func:`~sweep.kernels.stepsize.q_constants` where ``s.from_tol``), but not below
-    COARSE_STEPS (nor above ``s.steps``); else ``s.steps``."""
-    if not s.from_tol:
-        return s.steps
+def _shared(s, p):
+    """Resolution of a share ``p`` of ``s.steps``, but not below COARSE_STEPS (nor above
+    ``s.steps``)."""
     # Below COARSE_STEPS the estimate of q's error widens (sweep.kernels.balance): a floor
     # of 8 steps sent 26% of the KK draw at tol 1e-6 to refinement (7% at one resolution),
     # +6% steps; 12 saved 3% of KK there but cost linear 2% and 5% at 1e-8 against 16.
-    return max(s.steps * tol_share(c, k), min(s.steps, COARSE_STEPS))
+    return max(s.steps * p, min(s.steps, COARSE_STEPS))
+
+
+@jit(inline="always")
+def _first_steps(c, s, k):
+    """``(first, then)``: resolution of the first march of the law ``c``, and of the march
+    that follows it where it is a probe of a predicted stick (0 where not). Where
+    ``s.steps`` came from tol, the first march is at its share of it
+    (:func:`sweep.kernels.stepsize.tol_share`, ``k`` the exponents'
+    :func:`~sweep.kernels.stepsize.q_constants` where ``s.from_tol``), or, where the bead is
+    predicted to stick, at the floor, then at that share where that probe's estimate is
+    above the target (:func:`_needs_refining`); else ``s.steps``."""
+    if not s.from_tol:
+        return s.steps, 0.0
+    p, stick = tol_share(c, k)
+    shared, floor = _shared(s, p), _shared(s, 0.0)
+    # Without refinement (target 0) one march per point: no probe.
+    if stick and floor < shared and s.target > 0.0:
+        return floor, shared
+    return shared, 0.0
+
+
+@jit(inline="always")
+def _after_probe(a, n):
+    """The :class:`Result` ``a`` of the march after a probe of ``n`` steps, those counted."""
+    return Result(a.e, a.t_f, a.u_max, a.n + n, a.status, a.err, a.e_q, a.e_v)
 
 
 _NO_CONSTANTS = (math.nan, math.nan, math.nan, math.nan)
@@ -308,8 +331,14 @@ def _solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
         return r
     c = make_law(alpha, beta, gamma, gtilde)
     k = q_constants(alpha, beta) if s.from_tol else _NO_CONSTANTS
-    steps = _first_steps(c, s, k)
-    a = _solve_at(c, steps, s, s.max_steps, K, K2, Q)
+    steps, then = _first_steps(c, s, k)
+    probe = 0
+    # One call site of the march (its decision is inlined there: compile time, PTX size).
+    while True:
+        a = _after_probe(_solve_at(c, steps, s, s.max_steps - probe, K, K2, Q), probe)
+        if not (then > 0.0 and _needs_refining(s, a)):
+            break
+        steps, then, probe = then, 0.0, a.n
     if not _needs_refining(s, a):
         return _as_output(a)
     return _refined(c, s, a, steps / s.steps, K, K2, Q)
@@ -404,13 +433,14 @@ def _kept(r, n, err):
 def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err):
     """Every point of the arrays, serially: what :func:`solve_point` gives each, its marches
     run :data:`sweep.kernels.lanes.LANES` at a time (:func:`sweep.kernels.lanes.march_lanes`,
-    bit-identical to one point's march): first every point's first march, then each pass of
+    bit-identical to one point's march): first every point's first march, then the march
+    at its share of each point whose probe of a stick did not settle it, then each pass of
     refinement over the points still refining; ``nogil``, so that
     :func:`sweep.kernels._parallel.map_blocks` runs blocks of them at once."""
     out = (e, t_f, u_max, n_steps, status, e_err)
     todo = _first_marches(alpha, beta, gamma, gtilde, out)
     m = todo.size
-    steps = _first_resolutions(alpha, beta, gamma, gtilde, todo, s)
+    steps, then = _first_resolutions(alpha, beta, gamma, gtilde, todo, s)
     # Filled by hand: np.full compiles an implementation of its own (0.2 s of first call).
     budget = np.empty(m, np.int64)
     budget[:] = s.max_steps
@@ -419,19 +449,51 @@ def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err
     # lanes take an array of them) and their Refining states, a row each.
     where = np.empty(m, np.int64)
     rows = np.empty((m, _N_REFINING))
-    k = 0
+    probed = np.empty(m, np.int64)      # entries of todo whose probe did not settle them
+    k = n_probed = 0
     for j in range(m):
         i = todo[j]
         a = _decided(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), ending_at(ends, j),
                      steps[j])
-        if _needs_refining(s, a):
-            where[k] = i
-            _put_refining(rows, k, _refining(a, s, steps[j] / s.steps))
-            k += 1
+        if then[j] > 0.0 and _needs_refining(s, a):
+            probed[n_probed] = j
+            n_probed += 1
+            steps[j], budget[j] = then[j], s.max_steps - a.n
         else:
-            _put(out, i, _as_output(a))
+            k = _sort(s, a, i, steps[j], where, rows, k, out)
+    if n_probed > 0:
+        k = _after_probes(alpha, beta, gamma, gtilde, s, todo, probed[:n_probed], steps,
+                          budget, where, rows, k, out)
     while k > 0:
         k = _refinement_pass(alpha, beta, gamma, gtilde, s, where[:k], rows, out)
+
+
+@jit(inline="always")
+def _sort(s, a, i, steps, where, rows, k, out):
+    """Point i's first march (its :class:`Result` ``a``, at resolution ``steps``) to ``out``,
+    or, where it needs refining, to row k of the refining points; returns their count."""
+    if not _needs_refining(s, a):
+        _put(out, i, _as_output(a))
+        return k
+    where[k] = i
+    _put_refining(rows, k, _refining(a, s, steps / s.steps))
+    return k + 1
+
+
+@jit(inline="always")
+def _after_probes(alpha, beta, gamma, gtilde, s, todo, probed, steps, budget, where, rows,
+                  k, out):
+    """The march at its share (``steps``, with the ``budget`` the probe left) of each entry
+    ``probed[j]`` of ``todo`` whose probe did not settle it, all at once in lanes, each then
+    sorted as a first march (:func:`_sort`); returns the count of refining points."""
+    points, at, left = todo[probed], steps[probed], budget[probed]
+    ends = _marched(alpha, beta, gamma, gtilde, points, at, left, s)
+    for j in range(points.size):
+        i = points[j]
+        a = _decided(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), ending_at(ends, j),
+                     at[j])
+        k = _sort(s, _after_probe(a, s.max_steps - left[j]), i, at[j], where, rows, k, out)
+    return k
 
 
 _N_REFINING = 12
@@ -456,17 +518,18 @@ def _refining_at(rows, j):
 
 @jit(inline="always")
 def _first_resolutions(alpha, beta, gamma, gtilde, todo, s):
-    """:func:`_first_steps` of each point ``todo[j]``: the exponents' constants computed
-    again only where they change (a law's whole draw shares them)."""
+    """:func:`_first_steps` of each point ``todo[j]``, as two arrays: the exponents'
+    constants computed again only where they change (a law's whole draw shares them)."""
     steps = np.empty(todo.size)
+    then = np.empty(todo.size)
     k, ka, kb = _NO_CONSTANTS, math.nan, math.nan
     for j in range(todo.size):
         i = todo[j]
         c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
         if s.from_tol and not (c.alpha == ka and c.beta == kb):
             k, ka, kb = q_constants(c.alpha, c.beta), c.alpha, c.beta
-        steps[j] = _first_steps(c, s, k)
-    return steps
+        steps[j], then[j] = _first_steps(c, s, k)
+    return steps, then
 
 
 @jit(inline="always")

@@ -55,7 +55,11 @@ share of it (:func:`tol_share`): the march's error of e is about proportional to
 energy dissipated q, the damping's integrand being graded at u = 0
 (:func:`singular_exponent`; :mod:`sweep.kernels.balance`), so a nearly elastic bounce meets
 the error model's bound at a coarser resolution. q is predicted before the march from the
-report's first-order constants (:func:`predicted_q`).
+report's first-order constants (:func:`predicted_q`). A bead predicted to dissipate at
+least twice its energy (:data:`Q_STICK`) is first marched at the integrator's floor: a
+stick's e is exactly 0 once the energy rule certifies it, at any resolution, so that
+march need only certify it; where it leaves e_err above tol (the prediction was wrong, or
+the stick is too close to call) the point is marched at its share as any other.
 
 Owns: the step-size rule. May import: contact, special.
 """
@@ -65,7 +69,7 @@ import math
 from typing import NamedTuple
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import damping_rate, elastic_frequency, umax_undamped, well_depth
+from sweep.kernels.contact import damping_rate, damping_ratio, elastic_frequency, umax_undamped, well_depth
 from sweep.kernels.special import first_order_constants, large_gtilde_constants
 
 __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "GRADE_EXPONENT",
@@ -74,7 +78,7 @@ __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "GRADE_EXPONENT",
            "graded_by_exponent", "needs_grading", "graded_step",
            "StepPolicy", "policy", "local_policy", "first_guess", "resolution",
            "ERROR_AT_GRADE_STEPS", "q_constants", "predicted_q", "tol_share", "Q_REF",
-           "P_MIN"]
+           "P_MIN", "Q_STICK", "GAMMA_CALLABLE"]
 
 #: Ratio of step to distance from u = 0 inside the graded zone, at ``GRADE_STEPS``.
 GRADE_RATIO = 0.25
@@ -251,6 +255,36 @@ Q_REF = 0.2
 #: Smallest share: 0.2, 0.3 and 0.4 took within 1.5% of each other's steps at tol 1e-10,
 #: the one of tol 1e-6, 1e-8, 1e-10 where it binds above the integrator's floor of 16 steps.
 P_MIN = 0.3
+#: Predicted q (:func:`predicted_q`) from which a point is first marched at the
+#: integrator's floor (``sweep.kernels.balance.COARSE_STEPS``), a probe of a stick, where
+#: the prediction can call one (:func:`_callable`): q is at most 1/2 for a bead that
+#: leaves, and a prediction of 1 or more was a stick on 99.7% of the Sobol design's 32,457
+#: such points. A probe whose e_err is above tol (the 95 that left, with e up to 0.50;
+#: sticks too close to call) is followed by the march at the point's share, as without
+#: the probe, and refined from there (refined from the probe itself, Richardson across
+#: ratios up to 21 left e_err at 3e-9 on grazing points at tol 1e-10). Steps against the
+#: share alone at tol 1e-8 / 1e-10 (docs/accuracy.md, section 2): KK -4.2 / -7.9%, general
+#: -4.6 / -8.5%, the Sobol design -15.9 / -27.6%, heavily damped KK -38 / -59%, the hard
+#: cases +0.4 / -0.1%; the same largest errors and decisions. 2 saved less everywhere
+#: (Sobol -13 / -23%); 0.7 saved 0.8% more of the Sobol design at 1e-8 but cost the draws
+#: 1.5-4.5% at 1e-10; 0.5 saved less. A floor of 8 steps for the probes would save 7%
+#: more of the Sobol design; not taken: a settled stick's u_max is read off its probe
+#: (docs/accuracy.md, section 5), and 16 steps keep it within the envelope the nearly
+#: elastic points' share already has.
+Q_STICK = 1.0
+#: Damping up to which the first-order prediction calls a stick (:func:`_callable`).
+GAMMA_CALLABLE = 1.0
+
+
+@jit(inline="always")
+def _callable(c):
+    """Whether the prediction of q may call a stick of the law ``c``: gamma up to
+    :data:`GAMMA_CALLABLE`, or a linearisation about u-bar that is overdamped, so that the
+    bead creeps into the well and stays. Beyond, at g~ ~ 0, a heavily damped bead creeps
+    back and leaves with a small e (docs/creep.md) while q to first order in gamma is far
+    above 1: probing the hard cases' creeping beads cost them 23% more steps at tol 1e-8."""
+    return c.gamma <= GAMMA_CALLABLE or (
+        c.gtilde > 0.0 and damping_ratio(c.alpha, c.beta, c.gamma, c.gtilde) >= 1.0)
 
 
 # Called, not inlined: its one compiled copy gives every caller (the array kernel, one
@@ -286,14 +320,17 @@ def predicted_q(c, k):
 # Called, not inlined: once per point (compile time).
 @jit()
 def tol_share(c, k):
-    """Share ``p`` of ``resolution(tol)`` for the first march of the law ``c`` with a
-    tolerance: ``clip((q / Q_REF)^(1/5), P_MIN, 1)`` for the q predicted with the constants
-    ``k`` (:func:`predicted_q`), 1 where the prediction is not finite. The march's error
-    falls like ``steps^-5`` and is about proportional to q (module docstring)."""
+    """``(p, stick)``: the share ``p`` of ``resolution(tol)`` for the first march of the law
+    ``c`` with a tolerance, ``clip((q / Q_REF)^(1/5), P_MIN, 1)`` for the q predicted with
+    the constants ``k`` (:func:`predicted_q`), 1 where the prediction is not finite; and
+    whether that q says the bead sticks (:data:`Q_STICK`), so that a march at the
+    integrator's floor may settle it first. The march's error falls like ``steps^-5`` and
+    is about proportional to q (module docstring)."""
     q = predicted_q(c, k)
+    stick = q >= Q_STICK and _callable(c)
     if not q < Q_REF:       # NaN and inf included
-        return 1.0
-    return max((q / Q_REF) ** 0.2, P_MIN) if q > 0.0 else P_MIN
+        return 1.0, stick
+    return (max((q / Q_REF) ** 0.2, P_MIN) if q > 0.0 else P_MIN), stick
 
 
 class StepPolicy(NamedTuple):
