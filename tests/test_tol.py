@@ -190,7 +190,8 @@ LEAVES = [(1.0240885708481073, 2.369977243244648, 0.7094941363788713, 0.03790060
 def test_a_predicted_stick_is_settled_by_a_march_at_the_floor(tol):
     """A bead predicted to stick (q >= Q_STICK) is first marched at the integrator's floor
     of 16 steps: it sticks there with certainty (e = 0, e_err = 0), for fewer steps than a
-    march at its share; its u_max follows that march (docs/accuracy.md, section 5)."""
+    march at its share; its u_max follows that march (docs/accuracy.md, section 5).
+    ``refine=False`` keeps one march per point, at its share."""
     from sweep.kernels.stepsize import resolution
     ref = reference.dop853_solve(*STICK)
     r = sweep.integrate(*STICK, tol=tol)
@@ -199,6 +200,10 @@ def test_a_predicted_stick_is_settled_by_a_march_at_the_floor(tol):
     assert float(r.e) == 0.0 and float(r.e_err) == 0.0 and bool(r.sticks)
     assert int(r.n_steps) < 0.75 * int(given.n_steps), (r.n_steps, given.n_steps)
     assert abs(float(r.u_max) / ref["u_max"] - 1.0) < 2e-7
+    # Without refinement one march per point, at its share (all of it here): no probe.
+    once = sweep.integrate(*STICK, tol=tol, refine=False)
+    assert int(once.n_steps) == int(sweep.integrate(*STICK, steps=resolution(tol),
+                                                    refine=False).n_steps)
 
 
 @pytest.mark.parametrize("point", LEAVES)
