@@ -69,7 +69,8 @@ import math
 from typing import NamedTuple
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import damping_rate, damping_ratio, elastic_frequency, umax_undamped, well_depth
+from sweep.kernels.contact import (damping_rate, damping_ratio, elastic_frequency,
+                                   umax_undamped, well_depth)
 from sweep.kernels.special import first_order_constants, large_gtilde_constants
 
 __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "GRADE_EXPONENT",
