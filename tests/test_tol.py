@@ -206,6 +206,34 @@ def test_a_predicted_stick_is_settled_by_a_march_at_the_floor(tol):
                                                     refine=False).n_steps)
 
 
+# Heavily damped under a load (gamma > GAMMA_CALLABLE): an SHC bead that creeps into its
+# well about overdamped there (eps(u-bar) ~ 0.94, zeta ~ 0.42: sweep.kernels.stepsize.
+# EPS_CALLABLE) and sticks; and a hard case's creeping bead at g~ = 1e-6 (kappa < 0) that
+# leaves with e ~ 2.4e-3 while q to first order is ~48.
+DAMPED_STICK = (1.5, 2.5, 5.0, 0.05)
+CREEPS_OUT = (4.75456916, 4.7973655, 14.1607549, 1e-6)
+
+
+@pytest.mark.parametrize("tol", [1e-8, 1e-10])
+def test_a_heavily_damped_stick_is_probed_only_where_the_well_can_hold_it(tol):
+    """Beyond gamma = 1 a predicted stick is probed at the floor only where the bead creeps
+    into the well about overdamped (it sticks there: e = 0 for half the steps or fewer); a
+    creeping bead at g~ ~ 0 is marched at its share from the start, exactly as a given
+    steps= at that resolution (its share is 1), and meets tol."""
+    from sweep.kernels.stepsize import resolution
+    ref = reference.dop853_solve(*DAMPED_STICK)
+    r = sweep.integrate(*DAMPED_STICK, tol=tol)
+    given = sweep.integrate(*DAMPED_STICK, steps=resolution(tol), tol=tol)
+    assert ref["status"] in (reference.STUCK, reference.AT_REST)
+    assert float(r.e) == 0.0 and float(r.e_err) == 0.0
+    assert int(r.n_steps) <= 0.55 * int(given.n_steps), (r.n_steps, given.n_steps)
+    out = sweep.integrate(*CREEPS_OUT, tol=tol)
+    same = sweep.integrate(*CREEPS_OUT, steps=resolution(tol), tol=tol)
+    assert int(out.n_steps) == int(same.n_steps) and float(out.e) == float(same.e)
+    e_ref = reference_hp.solve(*CREEPS_OUT)["e"]
+    assert abs(float(out.e) - e_ref) <= max(tol, float(out.e_err))
+
+
 @pytest.mark.parametrize("point", LEAVES)
 @pytest.mark.parametrize("tol", [1e-8, 1e-10])
 def test_a_bead_wrongly_predicted_to_stick_still_meets_tol(point, tol):

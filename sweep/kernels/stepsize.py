@@ -79,7 +79,7 @@ __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "GRADE_EXPONENT",
            "graded_by_exponent", "needs_grading", "graded_step",
            "StepPolicy", "policy", "local_policy", "first_guess", "resolution",
            "ERROR_AT_GRADE_STEPS", "q_constants", "predicted_q", "tol_share", "Q_REF",
-           "P_MIN", "Q_STICK", "GAMMA_CALLABLE"]
+           "P_MIN", "Q_STICK", "GAMMA_CALLABLE", "EPS_CALLABLE"]
 
 #: Ratio of step to distance from u = 0 inside the graded zone, at ``GRADE_STEPS``.
 GRADE_RATIO = 0.25
@@ -275,17 +275,30 @@ P_MIN = 0.3
 Q_STICK = 1.0
 #: Damping up to which the first-order prediction calls a stick (:func:`_callable`).
 GAMMA_CALLABLE = 1.0
+#: Beyond GAMMA_CALLABLE, the largest ``eps(u-bar) = u-bar^kappa / (gamma beta)^2`` at which
+#: a predicted stick is probed (:func:`_callable`; docs/creep.md's eps, small where the bead
+#: is locally overdamped: ``eps = 1 / (4 alpha zeta^2)``). Measured at tol 1e-8 against an
+#: overdamped u-bar (zeta >= 1, eps <= 1/(4 alpha)), on the heavily damped draws (gamma =
+#: 10^U(0, 2), g~ = 10^U(-3, 1), 20,000 points) and the hard cases: 4 saved 23.5% of the
+#: SHC draw's steps, 15.5% of general exponents', 6.1% of KK's, for 2.0% more on the hard
+#: cases (1, the inner scale of docs/creep.md: 13.8, 12.6, 8.3% for 1.5%; zeta >= 0.25 or
+#: 0.1 whatever alpha: 21, 15, 6.3% for 1.5% and 19, 14, 6.1% for 4.1%; every predicted
+#: stick probed: 14, 9.6, 6.1% for 8.5%).
+EPS_CALLABLE = 4.0
 
 
 @jit(inline="always")
 def _callable(c):
     """Whether the prediction of q may call a stick of the law ``c``: gamma up to
-    :data:`GAMMA_CALLABLE`, or a linearisation about u-bar that is overdamped, so that the
-    bead creeps into the well and stays. Beyond, at g~ ~ 0, a heavily damped bead creeps
-    back and leaves with a small e (docs/creep.md) while q to first order in gamma is far
-    above 1: probing the hard cases' creeping beads cost them 23% more steps at tol 1e-8."""
-    return c.gamma <= GAMMA_CALLABLE or (
-        c.gtilde > 0.0 and damping_ratio(c.alpha, c.beta, c.gamma, c.gtilde) >= 1.0)
+    :data:`GAMMA_CALLABLE`, or, under a load, a bead that creeps into the well while still
+    about overdamped there (``eps(u-bar)`` at most :data:`EPS_CALLABLE`), and stays.
+    Beyond, at g~ ~ 0, a heavily damped bead creeps back and leaves with a small e
+    (docs/creep.md) while q to first order in gamma is far above 1: probing the hard cases'
+    creeping beads cost them 8.5% more steps at tol 1e-8."""
+    if c.gamma <= GAMMA_CALLABLE:
+        return True
+    zeta = damping_ratio(c.alpha, c.beta, c.gamma, c.gtilde)
+    return c.gtilde > 0.0 and 4.0 * c.alpha * EPS_CALLABLE * zeta * zeta >= 1.0
 
 
 # Called, not inlined: its one compiled copy gives every caller (the array kernel, one
