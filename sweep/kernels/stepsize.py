@@ -265,10 +265,10 @@ P_MIN = 0.3
 #: the probe, and refined from there (refined from the probe itself, Richardson across
 #: ratios up to 21 left e_err at 3e-9 on grazing points at tol 1e-10). Steps against the
 #: share alone at tol 1e-8 / 1e-10 (docs/accuracy.md, section 2): KK -4.2 / -7.9%, general
-#: -4.6 / -8.5%, the Sobol design -15.9 / -27.6%, heavily damped KK -38 / -59%, the hard
-#: cases +0.4 / -0.1%; the same largest errors and decisions. 2 saved less everywhere
-#: (Sobol -13 / -23%); 0.7 saved 0.8% more of the Sobol design at 1e-8 but cost the draws
-#: 1.5-4.5% at 1e-10; 0.5 saved less. A floor of 8 steps for the probes would save 7%
+#: -4.6 / -8.5%, the Sobol design -15.9 / -27.6%, heavily damped KK -42 / -67%, the hard
+#: cases +2.4 / +0.6%; the same largest errors and decisions. Measured with probes refined
+#: from directly: 2 saved less everywhere (Sobol -13 / -23%); 0.7 saved 0.8% more of the
+#: Sobol design at 1e-8 but cost the draws 1.5-4.5% at 1e-10; 0.5 saved less. A floor of 8 steps for the probes would save 7%
 #: more of the Sobol design; not taken: a settled stick's u_max is read off its probe
 #: (docs/accuracy.md, section 5), and 16 steps keep it within the envelope the nearly
 #: elastic points' share already has.
@@ -297,8 +297,11 @@ def _callable(c):
     creeping beads cost them 8.5% more steps at tol 1e-8."""
     if c.gamma <= GAMMA_CALLABLE:
         return True
+    if not c.gtilde > 0.0:
+        return False
+    # eps(u-bar) = 1 / (4 alpha zeta^2), zeta the damping ratio about u-bar.
     zeta = damping_ratio(c.alpha, c.beta, c.gamma, c.gtilde)
-    return c.gtilde > 0.0 and 4.0 * c.alpha * EPS_CALLABLE * zeta * zeta >= 1.0
+    return 4.0 * c.alpha * EPS_CALLABLE * zeta * zeta >= 1.0
 
 
 # Called, not inlined: its one compiled copy gives every caller (the array kernel, one
