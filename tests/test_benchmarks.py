@@ -187,6 +187,24 @@ def test_tol_margin_script_finds_the_estimate_a_bound():
         assert float(unrefined) < 1.0 and float(final) < 1.0, line
 
 
+def test_sticks_script_finds_the_probes_settle_sticks_within_tol():
+    script = ROOT / "benchmarks" / "sticks.py"
+    res = subprocess.run([sys.executable, str(script), "--n", "600", "--sobol-n", "1024"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    lines = res.stdout.splitlines()
+    assert len(lines) == 5 * 2                    # 5 draws x 2 tolerances
+    for line in lines:
+        # Against steps=500, tol=1e-12: within tol, no stick/rebound decision changed.
+        assert "decisions changed 0" in line, line
+        assert float(line.split("max err/tol ")[1].split(",")[0]) < 1.0, line
+    for line in (x for x in lines if x.startswith("kk damped")):
+        # Heavily damped KK points all stick: the probes settle them for fewer steps.
+        steps, without = (int(x.replace(",", "")) for x in
+                          line.split("steps ")[1].split(" without")[0].split(" against "))
+        assert steps < 0.8 * without, line
+
+
 def test_step_cost_script_fits_a_cost_per_step():
     script = ROOT / "benchmarks" / "step_cost.py"
     res = subprocess.run([sys.executable, str(script), "--n", "3000", "--repeat", "1"],
