@@ -103,6 +103,19 @@ def test_parallel_serial_and_thread_counts_agree_bitwise():
     np.testing.assert_array_equal(rev.e[::-1], ref.e)
 
 
+def test_blocks_larger_than_the_smallest_change_no_bit():
+    # Large calls go to the threads in blocks of up to 4,096 points (integrator._block_size);
+    # with tol (probes of predicted sticks, refinement passes in lanes) as without.
+    from sweep.kernels._parallel import threads
+    from sweep.kernels.integrator import _BLOCK, _block_size
+    pts = _grid(40000, seed=4)
+    if threads() > 1:
+        assert _block_size(40000, threads()) > _BLOCK
+    for kw in ({"steps": 24}, {"tol": 1e-8}):
+        _same(sweep.integrate(*pts, parallel=True, **kw),
+              sweep.integrate(*pts, parallel=False, **kw))
+
+
 def test_calls_from_worker_threads_are_safe_and_identical():
     pts = _grid(800, seed=2)
     ref = sweep.integrate(*pts, steps=24)
