@@ -34,6 +34,14 @@ def _run(*args, cache):
     return [json.loads(x) for x in res.stdout.splitlines() if x.strip()], res.stderr
 
 
+def _script_lines(name, *args):
+    """The stdout lines of ``benchmarks/<name>`` run with ``args`` (which must succeed)."""
+    res = subprocess.run([sys.executable, str(ROOT / "benchmarks" / name), *args], cwd=ROOT,
+                         capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    return res.stdout.splitlines()
+
+
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
     cache = tmp_path_factory.mktemp("ref-cache")
@@ -155,11 +163,7 @@ def test_unknown_figure_is_refused():
 
 
 def test_error_model_script_prints_one_line_per_law_and_resolution():
-    script = ROOT / "benchmarks" / "error_model.py"
-    res = subprocess.run([sys.executable, str(script), "--n", "300", "--steps", "24", "48"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert res.returncode == 0, res.stderr[-3000:]
-    lines = res.stdout.splitlines()
+    lines = _script_lines("error_model.py", "--n", "300", "--steps", "24", "48")
     assert len(lines) == 2 * 6
     errs = {}
     for line in lines:
@@ -172,11 +176,7 @@ def test_error_model_script_prints_one_line_per_law_and_resolution():
 
 
 def test_tol_margin_script_finds_the_estimate_a_bound():
-    script = ROOT / "benchmarks" / "tol_margin.py"
-    res = subprocess.run([sys.executable, str(script), "--n", "400"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert res.returncode == 0, res.stderr[-3000:]
-    lines = res.stdout.splitlines()
+    lines = _script_lines("tol_margin.py", "--n", "400")
     assert len(lines) == 4 * (3 + 4)          # 4 laws x (3 tolerances + 4 resolutions)
     for line in lines:
         # The largest true error over e_err: a bound at every tolerance and resolution.
@@ -188,11 +188,7 @@ def test_tol_margin_script_finds_the_estimate_a_bound():
 
 
 def test_sticks_script_finds_the_probes_settle_sticks_within_tol():
-    script = ROOT / "benchmarks" / "sticks.py"
-    res = subprocess.run([sys.executable, str(script), "--n", "600", "--sobol-n", "1024"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert res.returncode == 0, res.stderr[-3000:]
-    lines = res.stdout.splitlines()
+    lines = _script_lines("sticks.py", "--n", "600", "--sobol-n", "1024")
     assert len(lines) == 5 * 2                    # 5 draws x 2 tolerances
     for line in lines:
         # Against steps=500, tol=1e-12: within tol, no stick/rebound decision changed.
@@ -206,11 +202,7 @@ def test_sticks_script_finds_the_probes_settle_sticks_within_tol():
 
 
 def test_step_cost_script_fits_a_cost_per_step():
-    script = ROOT / "benchmarks" / "step_cost.py"
-    res = subprocess.run([sys.executable, str(script), "--n", "3000", "--repeat", "1"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert res.returncode == 0, res.stderr[-3000:]
-    line = res.stdout.strip()
+    line = "\n".join(_script_lines("step_cost.py", "--n", "3000", "--repeat", "1")).strip()
     assert float(line.split(": ")[1].split(" ns per step")[0]) > 0.0, line
     n48, n192 = (float(x) for x in line.split("(")[1].split(" steps per point")[0].split(" and "))
     # Four times the resolution: about four times the steps (graded zone and events aside).
@@ -218,11 +210,8 @@ def test_step_cost_script_fits_a_cost_per_step():
 
 
 def test_approx_throughput_script_times_every_closed_form():
-    script = ROOT / "benchmarks" / "approx_throughput.py"
-    res = subprocess.run([sys.executable, str(script), "--n", "2000", "--repeat", "1"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert res.returncode == 0, res.stderr[-3000:]
-    rows = {line.split(":")[0].strip(): line for line in res.stdout.splitlines()
+    lines = _script_lines("approx_throughput.py", "--n", "2000", "--repeat", "1")
+    rows = {line.split(":")[0].strip(): line for line in lines
             if "points/s" in line}
     from sweep.kernels.approx import CODES
     assert set(rows) == set(CODES)
@@ -233,12 +222,7 @@ def test_approx_throughput_script_times_every_closed_form():
 
 
 def test_hp_audit_script_finds_no_violation_on_a_small_draw():
-    script = ROOT / "benchmarks" / "hp_audit.py"
-    res = subprocess.run([sys.executable, str(script), "--n", "6", "--families", "d", "e",
-                          "--seed", "3"], cwd=ROOT, capture_output=True, text=True,
-                         timeout=600)
-    assert res.returncode == 0, res.stderr[-3000:]
-    lines = res.stdout.splitlines()
+    lines = _script_lines("hp_audit.py", "--n", "6", "--families", "d", "e", "--seed", "3")
     assert len(lines) == 2 * 4                    # 2 families x 4 settings
     for line in lines:
         # Light damping under huge loads, and alpha or beta = 1 / beta = alpha + 1: e_err
@@ -248,11 +232,7 @@ def test_hp_audit_script_finds_no_violation_on_a_small_draw():
 
 
 def test_writer_script_writes_the_sobol_values_and_names_each_choice():
-    script = ROOT / "benchmarks" / "writer.py"
-    res = subprocess.run([sys.executable, str(script), "--n", "2048", "--repeat", "1"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert res.returncode == 0, res.stderr[-3000:]
-    head, *rows = res.stdout.splitlines()
+    head, *rows = _script_lines("writer.py", "--n", "2048", "--repeat", "1")
     assert "s of CPU a million points" in head and "MB raw" in head, head
     size, raw = (float(x.split(" MB")[0]) for x in head.split("file ")[1].split(" of "))
     assert 0 < size < raw, head                  # the flags and coordinates deflate
