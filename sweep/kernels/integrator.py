@@ -212,6 +212,14 @@ def _decided(c, end, steps):
     return Result(e, exit_time(c, end, e, status, err), end.u_max, end.n, status, err, e_q, e_v)
 
 
+@jit(inline="always")
+def _ended(alpha, beta, gamma, gtilde, i, ends, j, steps):
+    """The :class:`Result` of point i's march at resolution ``steps``, whose Ending
+    :func:`sweep.kernels.lanes.march_lanes` stored in row j of ``ends``."""
+    return _decided(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), ending_at(ends, j),
+                    steps)
+
+
 # Inlined (one call site in each of solve_point and _refined): a dispatcher level costs
 # a compile of the whole march below it again.
 @jit(inline="always")
@@ -299,8 +307,8 @@ def _first_steps(c, s, k):
 
 
 @jit(inline="always")
-def _after_probe(a, n):
-    """The :class:`Result` ``a`` of the march after a probe of ``n`` steps, those counted."""
+def _plus_steps(a, n):
+    """The :class:`Result` ``a`` with ``n`` more steps counted (a probe's, before it)."""
     return Result(a.e, a.t_f, a.u_max, a.n + n, a.status, a.err, a.e_q, a.e_v)
 
 
@@ -335,7 +343,7 @@ def _solve_point(alpha, beta, gamma, gtilde, s, K, K2, Q):
     probe = 0
     # One call site of the march (its decision is inlined there: compile time, PTX size).
     while True:
-        a = _after_probe(_solve_at(c, steps, s, s.max_steps - probe, K, K2, Q), probe)
+        a = _plus_steps(_solve_at(c, steps, s, s.max_steps - probe, K, K2, Q), probe)
         if not (then > 0.0 and _needs_refining(s, a)):
             break
         steps, then, probe = then, 0.0, a.n
@@ -453,8 +461,7 @@ def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err
     k = n_probed = 0
     for j in range(m):
         i = todo[j]
-        a = _decided(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), ending_at(ends, j),
-                     steps[j])
+        a = _ended(alpha, beta, gamma, gtilde, i, ends, j, steps[j])
         if then[j] > 0.0 and _needs_refining(s, a):
             probed[n_probed] = j
             n_probed += 1
@@ -490,9 +497,8 @@ def _after_probes(alpha, beta, gamma, gtilde, s, todo, probed, steps, budget, wh
     ends = _marched(alpha, beta, gamma, gtilde, points, at, left, s)
     for j in range(points.size):
         i = points[j]
-        a = _decided(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), ending_at(ends, j),
-                     at[j])
-        k = _sort(s, _after_probe(a, s.max_steps - left[j]), i, at[j], where, rows, k, out)
+        a = _ended(alpha, beta, gamma, gtilde, i, ends, j, at[j])
+        k = _sort(s, _plus_steps(a, s.max_steps - left[j]), i, at[j], where, rows, k, out)
     return k
 
 
@@ -569,8 +575,7 @@ def _refinement_pass(alpha, beta, gamma, gtilde, s, where, rows, out):
     k = 0
     for j in range(m):
         i = where[j]
-        a = _decided(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), ending_at(ends, j),
-                     steps[j])
+        a = _ended(alpha, beta, gamma, gtilde, i, ends, j, steps[j])
         finished, o, r = _refine_update(_refining_at(rows, j), a, s)
         if finished:
             _put(out, i, o)
@@ -600,9 +605,9 @@ _BLOCKS_PER_THREAD = 32
 _OUT = ("e", "t_f", "u_max", "n_steps", "status", "e_err")
 
 
-def _block_size(n, threads):
-    """Points per block of a parallel call of n points on ``threads`` threads."""
-    return int(min(_BLOCK_MAX, max(_BLOCK, n // (threads * _BLOCKS_PER_THREAD))))
+def _block_size(n, n_threads):
+    """Points per block of a parallel call of n points on ``n_threads`` threads."""
+    return int(min(_BLOCK_MAX, max(_BLOCK, n // (n_threads * _BLOCKS_PER_THREAD))))
 
 
 def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None):

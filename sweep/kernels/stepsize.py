@@ -256,21 +256,21 @@ Q_REF = 0.2
 #: Smallest share: 0.2, 0.3 and 0.4 took within 1.5% of each other's steps at tol 1e-10,
 #: the one of tol 1e-6, 1e-8, 1e-10 where it binds above the integrator's floor of 16 steps.
 P_MIN = 0.3
-#: Predicted q (:func:`predicted_q`) from which a point is first marched at the
-#: integrator's floor (``sweep.kernels.balance.COARSE_STEPS``), a probe of a stick, where
-#: the prediction can call one (:func:`_callable`): q is at most 1/2 for a bead that
-#: leaves, and a prediction of 1 or more was a stick on 99.7% of the Sobol design's 32,457
-#: such points. A probe whose e_err is above tol (the 95 that left, with e up to 0.50;
-#: sticks too close to call) is followed by the march at the point's share, as without
-#: the probe, and refined from there (refined from the probe itself, Richardson across
-#: ratios up to 21 left e_err at 3e-9 on grazing points at tol 1e-10). Steps against the
-#: share alone at tol 1e-8 / 1e-10 (docs/accuracy.md, section 2): KK -4.2 / -7.9%, general
-#: -4.6 / -8.5%, the Sobol design -15.9 / -27.6%, heavily damped KK -42 / -67%, the hard
-#: cases +2.4 / +0.6%; the same largest errors and decisions. Measured with probes refined
-#: from directly: 2 saved less everywhere (Sobol -13 / -23%); 0.7 saved 0.8% more of the
-#: Sobol design at 1e-8 but cost the draws 1.5-4.5% at 1e-10; 0.5 saved less. A floor of 8 steps for the probes would save 7%
-#: more of the Sobol design; not taken: a settled stick's u_max is read off its probe
-#: (docs/accuracy.md, section 5), and 16 steps keep it within the envelope the nearly
+#: Predicted q (:func:`predicted_q`) from which a point is first marched at the integrator's
+#: floor (``sweep.kernels.balance.COARSE_STEPS``), a probe of a stick, where the prediction
+#: can call one (:func:`_callable`): q is at most 1/2 for a bead that leaves, and a
+#: prediction of 1 or more was a stick on 99.7% of the Sobol design's 32,457 such points. A
+#: probe whose e_err is above tol (the 95 that left, with e up to 0.50; sticks too close to
+#: call) is followed by the march at the point's share, as without the probe, and refined
+#: from there (refined from the probe itself, Richardson across ratios up to 21 left e_err
+#: at 3e-9 on grazing points at tol 1e-10). Steps against the share alone at tol 1e-8 /
+#: 1e-10 (docs/accuracy.md, section 2): KK -4.2 / -7.9%, general -4.6 / -8.5%, the Sobol
+#: design -15.9 / -27.6%, heavily damped KK -42 / -67%, the hard cases +2.4 / +0.6%; the
+#: same largest errors and decisions. Measured with probes refined from directly: 2 saved
+#: less everywhere (Sobol -13 / -23%); 0.7 saved 0.8% more of the Sobol design at 1e-8 but
+#: cost the draws 1.5-4.5% at 1e-10; 0.5 saved less. A floor of 8 steps for the probes would
+#: save 7% more of the Sobol design; not taken: a settled stick's u_max is read off its
+#: probe (docs/accuracy.md, section 5), and 16 steps keep it within the envelope the nearly
 #: elastic points' share already has.
 Q_STICK = 1.0
 #: Damping up to which the first-order prediction calls a stick (:func:`_callable`).
