@@ -20,14 +20,14 @@ import argparse
 
 import numba
 import numpy as np
-from scipy.stats import qmc
 
 import sweep
-from run_all import draw
+from run_all import ROOT, draw
 from sweep import Status
 from sweep.kernels.balance import COARSE_STEPS
 from sweep.kernels.contact import make_law
 from sweep.kernels.stepsize import q_constants, resolution, tol_share
+from sweep.sweeps import config, design
 
 TOLS = (1e-8, 1e-10)
 
@@ -43,9 +43,9 @@ def probed(alpha, beta, gamma, gtilde):
 
 
 def sobol(n):
-    """The first n points of configs/sobol_1m.toml's design (seed 20211203)."""
-    u = qmc.Sobol(4, seed=20211203).random(n)
-    return 1 + 2 * u[:, 0], 1 + 2 * u[:, 1], 10 ** (-4 + 4 * u[:, 2]), 10 * u[:, 3]
+    """The first n points of configs/sobol_1m.toml's design, as `sweep run` makes them."""
+    cfg = config.load(ROOT / "configs" / "sobol_1m.toml")
+    return design.build(cfg.design, cfg.source).points(0, n)
 
 
 def line(name, pts, tol, ref):
