@@ -321,11 +321,21 @@ def test_the_inliner_splices_a_package_callee_s_fresh_ir_uncopied(monkeypatch):
     assert len(built) == 4 and not validated[2] & built[2] and not validated[3] & built[3]
 
 
-def test_a_called_helper_is_compiled_without_machine_code_of_its_own():
-    """A called helper compiled under a package kernel leaves its optimised IR for its
-    callers and puts nothing in the JIT engine (``_jit._leave_helpers_unemitted``)."""
+def test_a_called_helper_is_compiled_without_machine_code_of_its_own(monkeypatch):
+    """A called helper compiled under a package kernel leaves its IR for its callers,
+    without module passes of its own, and puts nothing in the JIT engine; the kernel that
+    links it runs the module passes over both (``_jit._leave_helpers_unemitted``)."""
     if not _jit._leave_helpers_unemitted():
         pytest.skip("numba's codegen is not one EXECUTABLE_SOURCES knows")
+    from numba.core.codegen import CPUCodeLibrary
+
+    passes = []
+    plain = CPUCodeLibrary._optimize_final_module
+
+    def counted(self):
+        passes.append(self.name)
+        return plain(self)
+    monkeypatch.setattr(CPUCodeLibrary, "_optimize_final_module", counted)
 
     def cube(x):
         return x * x * x
@@ -334,11 +344,16 @@ def test_a_called_helper_is_compiled_without_machine_code_of_its_own():
         return helper(x) + 1.0
 
     helper = _jit.jit()(cube)
-    assert _as_if_in("sweep.kernels.fake", kernel)(2.0) == 9.0
+    kernel = _as_if_in("sweep.kernels.fake", kernel)
+    assert kernel(2.0) == 9.0
     (cres,) = helper.overloads.values()
     engine = cres.library.codegen._engine
     assert cres.library._finalized and "cube" in cres.library.get_llvm_str()
     assert not engine.is_symbol_defined(cres.fndesc.llvm_func_name)
+    (kres,) = kernel.overloads.values()
+    assert passes == [kres.library.name]
+    # The kernel's module passes inlined the helper: its optimised code calls nothing.
+    assert cres.fndesc.llvm_func_name not in kres.library.get_llvm_str()
     # Other code's dispatchers are emitted as numba does.
     entry = numba.njit(lambda x: x * 2.0)
     entry(1.0)

@@ -18,7 +18,8 @@ with relaxed thresholds (:data:`COMPILE_GC_THRESHOLDS`, through numba's public
 triggered took a tenth of the first compile. Meanwhile numba's inliner splices in the IR it
 built for the call site without copying it (:func:`_skip_fresh_copies`) and copies other
 callees with one memo for all their blocks (:func:`_share_inline_copies`); a helper that
-only kernels call gets no machine code of its own (:func:`_leave_helpers_unemitted`); an
+only kernels call gets no machine code and no module passes of its own: the kernel's run
+once over all it links (:func:`_leave_helpers_unemitted`); an
 operator on scalars is not matched against numpy's ufunc loops first
 (:func:`_scalar_operators_skip_ufuncs`); compile flags hash and compare faster
 (:func:`_quick_flag_comparisons`). Each of these patches of numba's internals applies
@@ -392,7 +393,10 @@ def _known(functions, sources, version) -> bool:
 def _patch_numba() -> None:
     """Apply the compile-time patches of numba's internals (each once, each only for the
     sources it was written for): the package's compiles then take less time and give the
-    same machine code (the CPU kernels' LLVM IR and assembly byte for byte)."""
+    same results. All but one give the CPU kernels' LLVM IR and assembly byte for byte; the
+    helpers' module passes, run once in the kernel instead of at every level, give other
+    machine code (the integrator's 1% shorter), whose results were bit for bit the same on
+    every draw checked (docs/speed/history.md, 2026-12-05)."""
     _share_inline_copies()
     _skip_fresh_copies()
     _leave_helpers_unemitted()
@@ -509,14 +513,24 @@ def _mark_fresh_callees(worker, version) -> bool:
 
 @functools.cache
 def _leave_helpers_unemitted() -> bool:
-    """Compile a called helper (:class:`_KernelOnly`) to optimised LLVM IR only, without its
-    own machine code; True where that applies.
+    """Compile a called helper (:class:`_KernelOnly`) to LLVM IR optimised function by
+    function only, without module passes or machine code of its own; True where that
+    applies.
 
     numba finalizes every dispatcher's code library into machine code, but a helper's is
-    never run: each caller links the helper's optimised IR into its own module (numba's
+    never run: each caller links the helper's IR into its own module (numba's
     ``linkonce_odr`` copies) and emits it there, and Python may not call the helper. A
     kernel loaded from the cache already runs on those copies alone. Emitting the helpers
     took 0.44 s of the first ``sweep.cor()``'s 1.5 s of machine code.
+
+    numba also runs the full module pipeline (inlining, the reference-count pruning, O3)
+    on every library once its callees are linked in, so a helper's code went through it
+    once for each level of helpers above it, and again in the kernel that links them all.
+    A kernel's own library (an entry, or a kernel Python calls) still runs it, over the
+    whole linked module: every helper's code goes through it there, once. That took 0.8 s
+    off the first ``sweep.cor()`` (13.0-13.9 s, mean 13.3, against 14.0-14.2, mean 14.1;
+    five fresh caches each, interleaved), the kernels' times and results unchanged
+    (docs/speed/history.md, 2026-12-05).
     """
     from numba.core import cpu                            # noqa: PLC0415 -- numba internals
 
@@ -539,6 +553,7 @@ def _unemitted_helpers_in(context, version) -> bool:
     def get_executable(self, library, fndesc, env):
         if not _helper_being_compiled(fndesc):
             return plain(self, library, fndesc, env)
+        library._optimize_final_module = _left_to_the_kernel
         library._finalize_final_module = functools.partial(_finalize_unemitted, library)
         library._ensure_finalized()
         # numba's own entry object, with no code address: _KernelOnly refuses calls.
@@ -557,6 +572,10 @@ def _helper_being_compiled(fndesc) -> bool:
         return False
     fn = dispatcher.py_func
     return fndesc.qualname == fn.__qualname__ and fndesc.modname == fn.__module__
+
+
+def _left_to_the_kernel() -> None:
+    """A helper library's module passes: none; the kernel that links it runs them."""
 
 
 def _finalize_unemitted(library) -> None:
