@@ -26,20 +26,26 @@ from run_all import ROOT, draw
 from sweep import Status
 from sweep.kernels.balance import COARSE_STEPS
 from sweep.kernels.contact import make_law
-from sweep.kernels.stepsize import q_constants, resolution, tol_share
+from sweep.kernels.integrator import _first_steps, settings
+from sweep.kernels.stepsize import q_constants, resolution
 from sweep.sweeps import config, design
 
 TOLS = (1e-8, 1e-10)
 
 
 @numba.njit
-def probed(alpha, beta, gamma, gtilde):
-    """Whether each point's first march with a tolerance is a probe of a stick."""
+def _probed(alpha, beta, gamma, gtilde, s):
     out = np.empty(alpha.size, np.bool_)
     for i in range(alpha.size):
         c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
-        out[i] = tol_share(c, q_constants(alpha[i], beta[i]))[1]
+        out[i] = _first_steps(c, s, q_constants(alpha[i], beta[i]))[1] > 0.0
     return out
+
+
+def probed(alpha, beta, gamma, gtilde, tol):
+    """Whether each point's first march with ``tol`` is a probe of a stick: the
+    integrator's own rule (``integrator._first_steps``), a march to follow where it fails."""
+    return _probed(alpha, beta, gamma, gtilde, settings(tol=tol))
 
 
 def sobol(n):
@@ -51,7 +57,7 @@ def sobol(n):
 def line(name, pts, tol, ref):
     """One draw at one tol: probes, steps with and without them, errors."""
     r = sweep.integrate(*pts, tol=tol)
-    flag = probed(*pts)
+    flag = probed(*pts, tol)
     without = r.n_steps.astype(np.int64).sum()
     failed = np.zeros(0, bool)
     if flag.any():
