@@ -6,9 +6,12 @@ time (``python benchmarks/lanes.py``). :func:`march_lanes` marches :data:`LANES`
 together: every stage is formed for all lanes before the next
 (:func:`sweep.kernels.stepper.rk_step_lanes`), so that the lanes' independent chains
 overlap, and everything else of a step -- its size, the damping cap, the events, the
-stopping rules -- is the one-point march's own code (:func:`sweep.kernels.march.first_guess`,
+stopping rules -- is the one-point march's own code (:func:`sweep.kernels.stepsize.first_guess`,
 :func:`sweep.kernels.march.after_stages_estimated`), run per lane; only the step's local
-error estimates are formed for all lanes in one loop first (:func:`_local_errors`). A lane
+error estimates are formed for all lanes in one loop first (:func:`_local_errors`). Most
+steps need none of that code but their size and the state moved on
+(:func:`sweep.kernels.march.uneventful`): those lanes' fields are read and written in
+place (:func:`_guessed`, :func:`_moved_on`). A lane
 whose march has ended takes the next point (those with general exponents first, whose
 stages take their powers by vectors of lanes: :func:`_general_first`).
 
@@ -17,20 +20,20 @@ order: the Endings are bit-identical to it whatever the other lanes hold
 (``tests/test_lanes.py``).
 
 A lane's march between two steps is a :class:`~sweep.kernels.march.State`; it is kept in
-the rows of a few arrays (:class:`Lanes`) and read back into the named tuple for each step.
+the rows of a few arrays (:class:`Lanes`) and read back into the named tuple for the steps
+that need the march's code.
 Inside the march those arrays, and the caller's, are borrowed views (:func:`_borrowed`):
 numba updates an array's reference count, an atomic operation, wherever an array variable
 is copied, at every inlined call level, and in the lanes' loop, where nothing waits on
 latency to hide them, those updates took 70% of the time (``perf``: the ``lock`` of
 ``NRT_incref`` and ``NRT_decref``); in the one-point march they hide in its latency.
 
-Cost (one core, KK, ``python benchmarks/step_cost.py``): 43 ns a step on 2026-12-02,
-48-53 ns the day before (against 78 for one point's march then), before the fused
-multiply-adds and the models' own copies of the right-hand side
-(:func:`sweep.kernels.contact.rhs_at`); the stages alone take 25-26 ns of it
-(``benchmarks/lanes.py``). Its first compile takes about 13 s (the callees it shares with
-the one-point march included; 10 s before those copies) against 7 s for the one-point
-march, which array calls no longer compile.
+Cost (one core, KK, ``python benchmarks/step_cost.py``): 40 ns a step on 2026-12-05,
+51 before the uneventful steps were moved in place, 48-53 ns on 2026-12-01 (against 78 for
+one point's march then); the stages alone take 28 ns of it (``benchmarks/lanes.py``). Its
+first compile takes about 13 s (the callees it shares with the one-point march included; 10
+s before those copies) against 7 s for the one-point march, which array calls no longer
+compile.
 
 Owns: the multi-point driver and the layout of its lanes. May import: contact, creep,
 stepper, stepsize, march.
@@ -47,10 +50,11 @@ from numba.extending import intrinsic
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import LAW_COLUMNS, general_exponents, law_at, make_law, put_law
 from sweep.kernels.creep import Creep, creep_constants
-from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated, out_of_budget,
-                                 scratch, start)
+from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
+                                 carry_last_stage, compensated_sum, out_of_budget, scratch,
+                                 start, uneventful)
 from sweep.kernels.stepper import N_STAGES, local_error, rk_step_lanes
-from sweep.kernels.stepsize import StepPolicy, first_guess, policy
+from sweep.kernels.stepsize import StepPolicy, first_guess, policy, uncapped_guess
 
 __all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
 
@@ -241,6 +245,45 @@ def _any(live):
     return False
 
 
+@jit(inline="always")
+def _guessed(ln, lane, budget):
+    """Where ``lane``'s policy is neither local nor capped and its budget not spent (most
+    steps), its next step's size (:func:`~sweep.kernels.stepsize.uncapped_guess`) in
+    ``ln.h`` and True; else False."""
+    n = ln.SI
+    if n[lane, _CAPPED] != 0 or n[lane, _LOCAL] != 0 or n[lane, _N] >= budget[ln.point[lane]]:
+        return False
+    ln.h[lane] = uncapped_guess(ln.u[lane], ln.SF[lane, _V], _state(ln, lane).p)
+    return True
+
+
+@jit(inline="always")
+def _moved_on(ln, lane, rest_tol):
+    """Where the step just taken by ``lane`` is :func:`~sweep.kernels.march.uneventful`
+    (most steps), its state moved on in place, as
+    :func:`~sweep.kernels.march.after_stages_estimated` moves it, and True; else False,
+    the lane's state untouched. Read and written back whole, the State's 15 fields and its
+    policy's 8 took a fifth of a KK step (51 against 40 ns, ``benchmarks/step_cost.py``)."""
+    f = ln.SF
+    n = ln.SI
+    y = ln.y
+    u1, w1, v1 = y[lane, 0], y[lane, 1], ln.K[lane, N_STAGES - 1, 0]
+    r1, rc1 = compensated_sum(f[lane, _R], f[lane, _RC], y[lane, 2])
+    if not uneventful(n[lane, _PHASE], n[lane, _CAPPED] != 0, u1, w1, v1, r1,
+                      n[lane, _EP1] != 0, f[lane, _QS], law_at(ln.LF, ln.LI, lane),
+                      _creep_at(ln, lane).ubar, rest_tol):
+        return False
+    ln.u[lane], ln.w[lane] = u1, w1
+    f[lane, _T] = f[lane, _T] + ln.h[lane]
+    f[lane, _R], f[lane, _RC], f[lane, _V] = r1, rc1, v1
+    f[lane, _LW] = f[lane, _LW] + abs(y[lane, 3])
+    f[lane, _LQ] = f[lane, _LQ] + abs(y[lane, 4])
+    n[lane, _N] += 1
+    # ln.K[lane] is a view of a borrowed array: it costs no count.
+    carry_last_stage(ln.K[lane])
+    return True
+
+
 # Called only by kernels (tests reach it through a jitted caller): no wrappers, and no
 # machine code of its own (sweep.kernels._jit._leave_helpers_unemitted).
 @jit()
@@ -274,7 +317,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     while _any(ln.live):
         idle = False
         for lane in range(LANES):      # the step's size, after march()'s budget test
-            if ln.live[lane]:
+            if ln.live[lane] and not _guessed(ln, lane, budget):
                 st, c = _state(ln, lane), law_at(ln.LF, ln.LI, lane)
                 if st.n < budget[ln.point[lane]]:
                     ln.h[lane] = first_guess(st.u, st.v, st.p, c)
@@ -285,7 +328,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
             rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y)
             _local_errors(ln)
             for lane in range(LANES):  # the rest of march()'s step
-                if ln.live[lane]:
+                if ln.live[lane] and not _moved_on(ln, lane, rest_tol):
                     # ln.K[lane] is a view of a borrowed array: it costs no count.
                     y = ln.y
                     st, end = after_stages_estimated(

@@ -56,7 +56,8 @@ from sweep.kernels.stepsize import (StepPolicy, damping_step, first_guess, local
 
 __all__ = ["Ending", "State", "march", "march_point", "start", "finish_step", "after_stages",
            "after_stages_estimated", "out_of_budget", "EXIT", "TROUGH", "SPENT", "REST",
-           "BUDGET", "CREEP", "NEGLIGIBLE", "GOING", "scratch"]
+           "BUDGET", "CREEP", "NEGLIGIBLE", "GOING", "scratch", "uneventful",
+           "compensated_sum", "carry_last_stage"]
 
 # Relative roundoff in the dissipated energy q (a sum of positive terms): the energy rule
 # waits until q exceeds the initial energy 1/2 by more than it.
@@ -107,6 +108,22 @@ def _set_first_stage(K, fu, fw, fr):
     K[0, 0] = fu
     K[0, 1] = fw
     K[0, 2] = fr
+
+
+@jit(inline="always")
+def carry_last_stage(K):
+    """The next step's first stage is this one's last (first-same-as-last): f at its end."""
+    _set_first_stage(K, K[N_STAGES - 1, 0], K[N_STAGES - 1, 1], K[N_STAGES - 1, 2])
+
+
+@jit(inline="always")
+def compensated_sum(r, rc, dr):
+    """``r + dr`` by Kahan's compensated summation, ``rc`` the compensation carried:
+    ``(sum, its compensation)``. q's rounding stays at eps instead of growing with the
+    number of steps, which matters where e = sqrt(1 - 2 q) is small."""
+    y = dr - rc
+    r1 = r + y
+    return r1, (r1 - r) - y
 
 
 @jit(inline="always")
@@ -516,19 +533,47 @@ def _creep_rules(st, c, k, K, e_tol):
 @jit(inline="always")
 def _rules(st, c, k, K, rest_tol, e_tol):
     """The stopping rules and the creep jump at a step's end: ``(state, Ending)``."""
-    # The creep rules apply inside R (v >= -gamma u^beta / 2), which phase 1 always is:
-    # there only under heavy damping, where the bead may creep into a well for ever.
-    if (st.phase > 1 or st.p.capped) and st.v + st.w >= 0.0:
+    if _creep_rules_apply(st.phase, st.p.capped, st.v, st.w):
         st, end = _creep_rules(st, c, k, K, e_tol)
         if end.kind != GOING:
             return st, end
     # At most steps neither the rest box nor the energy rule can apply: the cheap tests
     # here say so, and only where one may is _settled called (compiled once, not copied
     # into every driver; 1.5-4 s of the lanes' first compile with its helpers inlined).
-    if (c.gtilde > 0.0 and _at_rest(st.u, st.v, k.ubar, rest_tol)) or _may_not_return(
-            st.u, st.w, st.r, st.v, st.phase, st.energy_in_phase1, st.q_stuck, c):
+    if _may_settle(st.u, st.w, st.r, st.v, st.phase, st.energy_in_phase1, st.q_stuck, c,
+                   k.ubar, rest_tol):
         return _settled(st, c, k, rest_tol)
     return st, Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
+
+
+@jit(inline="always")
+def _creep_rules_apply(phase, capped, v, w):
+    """The creep rules apply inside R (v >= -gamma u^beta / 2), which phase 1 always is:
+    there only under heavy damping (the damping cap on), where the bead may creep into a
+    well for ever."""
+    return (phase > 1 or capped) and v + w >= 0.0
+
+
+@jit(inline="always")
+def _may_settle(u, w, r, v, phase, energy_in_phase1, q_stuck, c, ubar, rest_tol):
+    """The rest box or the energy rule may apply at a step's end (:func:`_settled`)."""
+    return (c.gtilde > 0.0 and _at_rest(u, v, ubar, rest_tol)) or _may_not_return(
+        u, w, r, v, phase, energy_in_phase1, q_stuck, c)
+
+
+@jit(inline="always")
+def uneventful(phase, capped, u1, w1, v1, r1, energy_in_phase1, q_stuck, c, ubar,
+               rest_tol):
+    """Whether a step of a march in ``phase`` that ended at ``(u1, w1)``, velocity ``v1``
+    and dissipation integral ``r1``, needs nothing of :func:`after_stages_estimated` but
+    the state moved on: no damping cap (``capped``), no event inside it, no rule at its end
+    (``ubar``: the law ``c``'s static compression; the state's other fields as in
+    :class:`State`). Most steps are; the multi-point driver moves those itself
+    (:mod:`sweep.kernels.lanes`)."""
+    return not (capped or _may_have_event(phase, u1, v1, w1, ubar)
+                or _creep_rules_apply(phase, capped, v1, w1)
+                or _may_settle(u1, w1, r1, v1, phase, energy_in_phase1, q_stuck, c, ubar,
+                               rest_tol))
 
 
 @jit()
@@ -566,13 +611,10 @@ def _finish_step(st, c, k, u1, w1, dr, ew, eq, s, n, K, K2, Q, rest_tol, e_tol):
     phase, u_max, n, end = _events(st, c, k, u1, w1, v1, s, n, K, K2, Q)
     if end.kind != GOING:
         return st, Ending(end.kind, end.t, end.u, end.v, end.h, end.u_max, end.n, lw, lq)
-    # Compensated (Kahan) sum: q's rounding stays at eps instead of growing with the
-    # number of steps, which matters where e = sqrt(1 - 2 q) is small.
-    y = dr - st.rc
-    r1 = st.r + y
-    st = State(st.t + s, u1, w1, r1, (r1 - st.r) - y, v1, st.e0, st.q_stuck, phase, u_max, n,
-               lw, lq, st.p, st.energy_in_phase1)
-    _set_first_stage(K, K[N_STAGES - 1, 0], K[N_STAGES - 1, 1], K[N_STAGES - 1, 2])
+    r1, rc1 = compensated_sum(st.r, st.rc, dr)
+    st = State(st.t + s, u1, w1, r1, rc1, v1, st.e0, st.q_stuck, phase, u_max, n, lw, lq,
+               st.p, st.energy_in_phase1)
+    carry_last_stage(K)
     return _rules(st, c, k, K, rest_tol, e_tol)
 
 
