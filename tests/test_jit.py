@@ -470,3 +470,53 @@ def test_a_patch_keeps_out_of_other_sources():
     context = type("Context", (), {"get_executable": get_executable})
     assert not _jit._unemitted_helpers_in(context, numba.__version__)
     assert vars(context)["get_executable"] is get_executable
+
+
+def _branchy(a, n):
+    x = 0.0
+    y = 1.0
+    for i in range(n):
+        if a[i] > 0.0:
+            x = x + a[i]
+        else:
+            x = x - 1.0
+        if i > 2:
+            y = y * 0.5
+    z = x
+    if n > 3:
+        z = 2.0 * x + y
+    return z
+
+
+def _ssa_dump(blocks):
+    import io
+    out = io.StringIO()
+    for label in sorted(blocks):
+        out.write(f"label {label}:\n")
+        blocks[label].dump(file=out)
+    return out.getvalue()
+
+
+def test_ssa_reconstruction_rewrites_only_the_blocks_naming_each_variable(monkeypatch):
+    """While a package kernel compiles, numba's SSA reconstruction visits, for each
+    variable assigned more than once, only the blocks whose statements name it
+    (``_jit._ssa_visits_mentioning_blocks``), and gives the IR numba's own gives: the same
+    statements, names and phi nodes, block for block."""
+    from numba.core import compiler, ssa
+
+    if not _jit._ssa_visits_mentioning_blocks():
+        pytest.skip("numba's SSA reconstruction is not one SSA_SOURCES knows")
+    visits = []
+    run_pass = ssa._run_ssa_block_pass
+
+    def spy(states, blk, handler):
+        visits.append(states["label"])
+        return run_pass(states, blk, handler)
+    monkeypatch.setattr(ssa, "_run_ssa_block_pass", spy)
+    own = ssa._run_ssa.__wrapped__(compiler.run_frontend(_branchy).blocks)
+    n_own = len(visits)
+    monkeypatch.setattr(_jit._COLLECTOR, "_nest", ["a package kernel"])
+    narrowed = ssa._run_ssa(compiler.run_frontend(_branchy).blocks)
+    assert _ssa_dump(narrowed) == _ssa_dump(own)
+    assert "phi" in _ssa_dump(own)
+    assert len(visits) - n_own < n_own

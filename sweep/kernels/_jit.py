@@ -22,10 +22,11 @@ only kernels call gets no machine code and no module passes of its own: the kern
 once over all it links (:func:`_leave_helpers_unemitted`); an
 operator on scalars is not matched against numpy's ufunc loops first
 (:func:`_scalar_operators_skip_ufuncs`); compile flags hash and compare faster
-(:func:`_quick_flag_comparisons`). Each of these patches of numba's internals applies
-to the numba release and sources it was written for only (:data:`PATCHED_NUMBA`). A compile
-that a call from Python starts runs under a frame with a chunk of CPython's frame stack to
-itself (:func:`on_own_chunk`).
+(:func:`_quick_flag_comparisons`); numba's SSA reconstruction rewrites, for each variable,
+only the blocks that name it (:func:`_ssa_visits_mentioning_blocks`). Each of these patches
+of numba's internals applies to the numba release and sources it was written for only
+(:data:`PATCHED_NUMBA`). A compile that a call from Python starts runs under a frame with a
+chunk of CPython's frame stack to itself (:func:`on_own_chunk`).
 
 Owns: the kernel cache location and the compile-time settings. May import: nothing from
 ``sweep``.
@@ -53,6 +54,7 @@ __all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "packag
            "jit", "cached_jit", "on_own_chunk", "FLAGS", "COMPILE_GC_THRESHOLDS",
            "PATCHED_NUMBA", "INLINE_IR_SOURCES", "INLINE_FUNCTION_SOURCES",
            "EXECUTABLE_SOURCES", "ARRAY_OPERATOR_SOURCES", "TARGET_CONFIG_SOURCES",
+           "SSA_SOURCES",
            "OWN_CHUNK_SLOTS"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
@@ -373,6 +375,10 @@ ARRAY_OPERATOR_SOURCES = frozenset({"4647f17d50ba1ade"})
 #: replaces with what they compute, computed faster.
 TARGET_CONFIG_SOURCES = frozenset({"4d15a6c75137a983", "6d8774572d07d381", "12a29dc810f6a91b",
                                    "f2ff91c25728a971"})
+#: Sources of numba's ``ssa._run_ssa``, ``ssa._fix_ssa_vars`` and ``ssa._run_block_rewrite``
+#: (numba 0.68.1's) that :func:`_ssa_visits_mentioning_blocks` narrows to the blocks that
+#: name each variable.
+SSA_SOURCES = frozenset({"c497422bcf049990", "3f183045a5355bf4", "d17efdbed57062bf"})
 
 
 def _known(functions, sources, version) -> bool:
@@ -402,6 +408,7 @@ def _patch_numba() -> None:
     _leave_helpers_unemitted()
     _scalar_operators_skip_ufuncs()
     _quick_flag_comparisons()
+    _ssa_visits_mentioning_blocks()
 
 
 class _OneMemo:
@@ -684,3 +691,86 @@ def _option_values(config) -> dict:
     if not config._values.keys() <= defaults.keys():
         return config.values()
     return {**defaults, **config._values}
+
+
+#: While numba's SSA reconstruction runs on one of the package's functions: the labels of
+#: the blocks that name each variable (:func:`_ssa_visits_mentioning_blocks`).
+_SSA = threading.local()
+
+
+@functools.cache
+def _ssa_visits_mentioning_blocks() -> bool:
+    """Let numba's SSA reconstruction rewrite, for each variable assigned more than once,
+    only the blocks that name it; True where it does.
+
+    ``_run_ssa`` renames each such variable's definitions and then its uses by two passes
+    over every statement of the function, one variable at a time: variables times
+    statements. A block that does not name the variable comes out of both passes as it
+    went in (each statement given back unchanged), so it is passed over here; only a block
+    that gets the variable's phi nodes is rebuilt. ``march_lanes``, everything inlined:
+    194 such variables over about 4,000 blocks, 0.55 s of SSA reconstruction, 1.0 s with
+    the lanes' in-place steps (docs/speed/history.md, 2026-12-05). Applied to the sources
+    in :data:`SSA_SOURCES` of the releases in :data:`PATCHED_NUMBA`, to the package's
+    compiles only.
+    """
+    from numba.core import ir, ssa    # noqa: PLC0415 -- numba internals
+
+    functions = [getattr(ssa, name, None)
+                 for name in ("_run_ssa", "_fix_ssa_vars", "_run_block_rewrite")]
+    if not _known(functions, SSA_SOURCES, numba.__version__):
+        return False
+    run_ssa, fix_ssa_vars, run_block_rewrite = functions
+
+    @functools.wraps(run_ssa)
+    def _run_ssa(blocks):
+        if _COLLECTOR.depth == 0 or getattr(_SSA, "named", None) is not None:
+            return run_ssa(blocks)
+        _SSA.named = _blocks_naming(blocks)
+        try:
+            return run_ssa(blocks)
+        finally:
+            _SSA.named = None
+
+    @functools.wraps(run_block_rewrite)
+    def _run_block_rewrite(blocks, states, handler):
+        named = getattr(_SSA, "named", None)
+        if named is None:
+            return run_block_rewrite(blocks, states, handler)
+        naming = named.get(states["varname"], ())
+        out = {}
+        for label, blk in blocks.items():
+            out[label] = (run_block_rewrite({label: blk}, states, handler)[label]
+                          if label in naming else blk)
+        return out
+
+    @functools.wraps(fix_ssa_vars)
+    def _fix_ssa_vars(blocks, varname, defmap, cfg, df_plus, cache_list_vars):
+        if getattr(_SSA, "named", None) is None:
+            return fix_ssa_vars(blocks, varname, defmap, cfg, df_plus, cache_list_vars)
+        states = ssa._make_states(blocks)
+        states["varname"] = varname
+        states["defmap"] = defmap
+        states["phimap"] = phimap = ssa.defaultdict(list)
+        states["cfg"] = cfg
+        states["phi_locations"] = ssa._compute_phi_locations(df_plus, defmap)
+        newblocks = _run_block_rewrite(blocks, states, ssa._FixSSAVars(cache_list_vars))
+        for label, philist in phimap.items():
+            # A new block: one passed over is shared with the function's IR before.
+            old = newblocks[label]
+            newblocks[label] = blk = ir.Block(scope=old.scope, loc=old.loc)
+            blk.body = philist + old.body
+        return newblocks
+
+    ssa._run_ssa, ssa._fix_ssa_vars, ssa._run_block_rewrite = (
+        _run_ssa, _fix_ssa_vars, _run_block_rewrite)
+    return True
+
+
+def _blocks_naming(blocks) -> dict:
+    """Variable name -> labels of the blocks whose statements name it."""
+    named: dict = {}
+    for label, blk in blocks.items():
+        for stmt in blk.body:
+            for var in stmt.list_vars():
+                named.setdefault(var.name, set()).add(label)
+    return named

@@ -29,7 +29,7 @@ __all__ = ["Law", "make_law", "put_law", "law_at", "LAW_COLUMNS", "rhs_at", "pow
            "ppow_called", "rhs", "rhs_called", "velocity", "accel", "dissipated", "potential",
            "damping_rate", "equilibrium", "well_depth", "damping_ratio", "natural_frequency",
            "umax_undamped", "elastic_frequency", "in_domain", "KIND_ONE", "general_exponents",
-           "general_at", "general_arguments", "rhs_general"]
+           "general_at", "general_arguments", "rhs_general", "gtilde_at"]
 
 # Exponents of the report's models get a pow-free evaluation: pow() dominates the cost of a
 # stage, and sqrt is exact-rounded and several times cheaper.
@@ -123,6 +123,12 @@ def law_at(F, I, row):
     """The :class:`Law` stored in ``row`` of ``F`` and ``I`` by :func:`put_law`."""
     return Law(F[row, 0], F[row, 1], F[row, 2], F[row, 3], I[row, 0], I[row, 1], I[row, 2],
                I[row, 3] != 0)
+
+
+@jit(inline="always")
+def gtilde_at(F, row):
+    """The load g~ of the law in ``row`` of ``F`` (:func:`put_law`), alone."""
+    return F[row, 3]
 
 
 @jit(inline="always")

@@ -48,7 +48,8 @@ from numba.core import types
 from numba.extending import intrinsic
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import LAW_COLUMNS, general_exponents, law_at, make_law, put_law
+from sweep.kernels.contact import (LAW_COLUMNS, general_exponents, gtilde_at, law_at, make_law,
+                                   put_law)
 from sweep.kernels.creep import Creep, creep_constants
 from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
                                  carry_last_stage, compensated_sum, out_of_budget, scratch,
@@ -129,15 +130,21 @@ def _lanes():
 
 
 @jit(inline="always")
+def _policy_at(ln, lane):
+    f = ln.SF
+    n = ln.SI
+    return StepPolicy(f[lane, _H], f[lane, _RHO], f[lane, _SMIN], f[lane, _STEPS],
+                      n[lane, _GRADED] != 0, n[lane, _CAPPED] != 0, n[lane, _LOCAL] != 0,
+                      f[lane, _OMEGA])
+
+
+@jit(inline="always")
 def _state(ln, lane):
     f = ln.SF
     n = ln.SI
-    p = StepPolicy(f[lane, _H], f[lane, _RHO], f[lane, _SMIN], f[lane, _STEPS],
-                   n[lane, _GRADED] != 0, n[lane, _CAPPED] != 0, n[lane, _LOCAL] != 0,
-                   f[lane, _OMEGA])
     return State(f[lane, _T], ln.u[lane], ln.w[lane], f[lane, _R], f[lane, _RC], f[lane, _V],
                  f[lane, _E0], f[lane, _QS], n[lane, _PHASE], f[lane, _UMAX], n[lane, _N],
-                 f[lane, _LW], f[lane, _LQ], p, n[lane, _EP1] != 0)
+                 f[lane, _LW], f[lane, _LQ], _policy_at(ln, lane), n[lane, _EP1] != 0)
 
 
 @jit(inline="always")
@@ -164,6 +171,11 @@ def _put_creep(ln, lane, k):
     C = ln.CR
     C[lane, 0], C[lane, 1], C[lane, 2], C[lane, 3] = k.kappa, k.p, k.u_c, k.f_uc
     C[lane, 4], C[lane, 5], C[lane, 6] = k.ubar, k.u_jump, k.u_t
+
+
+@jit(inline="always")
+def _ubar_at(ln, lane):
+    return ln.CR[lane, 4]       # _put_creep's column of Creep.ubar
 
 
 @jit(inline="always")
@@ -253,7 +265,7 @@ def _guessed(ln, lane, budget):
     n = ln.SI
     if n[lane, _CAPPED] != 0 or n[lane, _LOCAL] != 0 or n[lane, _N] >= budget[ln.point[lane]]:
         return False
-    ln.h[lane] = uncapped_guess(ln.u[lane], ln.SF[lane, _V], _state(ln, lane).p)
+    ln.h[lane] = uncapped_guess(ln.u[lane], ln.SF[lane, _V], _policy_at(ln, lane))
     return True
 
 
@@ -270,8 +282,8 @@ def _moved_on(ln, lane, rest_tol):
     u1, w1, v1 = y[lane, 0], y[lane, 1], ln.K[lane, N_STAGES - 1, 0]
     r1, rc1 = compensated_sum(f[lane, _R], f[lane, _RC], y[lane, 2])
     if not uneventful(n[lane, _PHASE], n[lane, _CAPPED] != 0, u1, w1, v1, r1,
-                      n[lane, _EP1] != 0, f[lane, _QS], law_at(ln.LF, ln.LI, lane),
-                      _creep_at(ln, lane).ubar, rest_tol):
+                      n[lane, _EP1] != 0, f[lane, _QS], gtilde_at(ln.LF, lane),
+                      _ubar_at(ln, lane), rest_tol):
         return False
     ln.u[lane], ln.w[lane] = u1, w1
     f[lane, _T] = f[lane, _T] + ln.h[lane]

@@ -265,9 +265,10 @@ def _at_rest(u, v, ubar, rest_tol):
 
 
 @jit(inline="always")
-def _may_not_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
-    """:func:`_cannot_return`'s test without its confirmation: False where it is False."""
-    return c.gtilde > 0.0 and (phase > 1 or energy_in_phase1) and v * (w - v) + r > q_stuck
+def _may_not_return(u, w, r, v, phase, energy_in_phase1, q_stuck, gtilde):
+    """:func:`_cannot_return`'s test without its confirmation (``gtilde``: the law's g~):
+    False where it is False."""
+    return gtilde > 0.0 and (phase > 1 or energy_in_phase1) and v * (w - v) + r > q_stuck
 
 
 @jit(inline="always")
@@ -277,7 +278,7 @@ def _cannot_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
     detachment). q = gamma v u^beta + r, with gamma u^beta = w - v read off the state
     (no power per step) and confirmed from the power where the cheap form says yes.
     Applied from phase 2 on, and in phase 1 only when the linearisation is overdamped."""
-    if not _may_not_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c):
+    if not _may_not_return(u, w, r, v, phase, energy_in_phase1, q_stuck, c.gtilde):
         return False
     # w - v cancels in deep wells (both ~ the swing speed): confirm with the power itself.
     return dissipated(u, v, r, c) > q_stuck
@@ -540,8 +541,8 @@ def _rules(st, c, k, K, rest_tol, e_tol):
     # At most steps neither the rest box nor the energy rule can apply: the cheap tests
     # here say so, and only where one may is _settled called (compiled once, not copied
     # into every driver; 1.5-4 s of the lanes' first compile with its helpers inlined).
-    if _may_settle(st.u, st.w, st.r, st.v, st.phase, st.energy_in_phase1, st.q_stuck, c,
-                   k.ubar, rest_tol):
+    if _may_settle(st.u, st.w, st.r, st.v, st.phase, st.energy_in_phase1, st.q_stuck,
+                   c.gtilde, k.ubar, rest_tol):
         return _settled(st, c, k, rest_tol)
     return st, Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
 
@@ -555,25 +556,26 @@ def _creep_rules_apply(phase, capped, v, w):
 
 
 @jit(inline="always")
-def _may_settle(u, w, r, v, phase, energy_in_phase1, q_stuck, c, ubar, rest_tol):
+def _may_settle(u, w, r, v, phase, energy_in_phase1, q_stuck, gtilde, ubar, rest_tol):
     """The rest box or the energy rule may apply at a step's end (:func:`_settled`)."""
-    return (c.gtilde > 0.0 and _at_rest(u, v, ubar, rest_tol)) or _may_not_return(
-        u, w, r, v, phase, energy_in_phase1, q_stuck, c)
+    return (gtilde > 0.0 and _at_rest(u, v, ubar, rest_tol)) or _may_not_return(
+        u, w, r, v, phase, energy_in_phase1, q_stuck, gtilde)
 
 
 @jit(inline="always")
-def uneventful(phase, capped, u1, w1, v1, r1, energy_in_phase1, q_stuck, c, ubar,
+def uneventful(phase, capped, u1, w1, v1, r1, energy_in_phase1, q_stuck, gtilde, ubar,
                rest_tol):
     """Whether a step of a march in ``phase`` that ended at ``(u1, w1)``, velocity ``v1``
     and dissipation integral ``r1``, needs nothing of :func:`after_stages_estimated` but
     the state moved on: no damping cap (``capped``), no event inside it, no rule at its end
-    (``ubar``: the law ``c``'s static compression; the state's other fields as in
-    :class:`State`). Most steps are; the multi-point driver moves those itself
-    (:mod:`sweep.kernels.lanes`)."""
+    (``gtilde``, ``ubar``: the law's load and static compression; the state's other fields
+    as in :class:`State`). Most steps are; the multi-point driver moves those itself
+    (:mod:`sweep.kernels.lanes`). The law comes as its one number used: building its tuple
+    here cost compile time in that driver."""
     return not (capped or _may_have_event(phase, u1, v1, w1, ubar)
                 or _creep_rules_apply(phase, capped, v1, w1)
-                or _may_settle(u1, w1, r1, v1, phase, energy_in_phase1, q_stuck, c, ubar,
-                               rest_tol))
+                or _may_settle(u1, w1, r1, v1, phase, energy_in_phase1, q_stuck, gtilde,
+                               ubar, rest_tol))
 
 
 @jit()
