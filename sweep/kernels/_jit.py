@@ -723,13 +723,14 @@ def _ssa_visits_mentioning_blocks() -> bool:
 
     @functools.wraps(run_ssa)
     def _run_ssa(blocks):
-        if _COLLECTOR.depth == 0 or getattr(_SSA, "named", None) is not None:
-            return run_ssa(blocks)
-        _SSA.named = _blocks_naming(blocks)
+        # Each run gets the index of its own blocks (None: numba's own passes), and leaves
+        # the one it found.
+        previous = getattr(_SSA, "named", None)
+        _SSA.named = _blocks_naming(blocks) if _COLLECTOR.depth else None
         try:
             return run_ssa(blocks)
         finally:
-            _SSA.named = None
+            _SSA.named = previous
 
     @functools.wraps(run_block_rewrite)
     def _run_block_rewrite(blocks, states, handler):
