@@ -719,7 +719,15 @@ def _ssa_visits_mentioning_blocks() -> bool:
                  for name in ("_run_ssa", "_fix_ssa_vars", "_run_block_rewrite")]
     if not _known(functions, SSA_SOURCES, numba.__version__):
         return False
-    run_ssa, fix_ssa_vars, run_block_rewrite = functions
+    ssa._run_ssa, ssa._fix_ssa_vars, ssa._run_block_rewrite = _narrowed_ssa(ssa, ir,
+                                                                            *functions)
+    return True
+
+
+def _narrowed_ssa(ssa, ir, run_ssa, fix_ssa_vars, run_block_rewrite):
+    """numba's ``_run_ssa``, ``_fix_ssa_vars`` and ``_run_block_rewrite`` (of the module
+    ``ssa``) wrapped to rewrite, inside the package's compiles, only the blocks that name
+    each variable (:func:`_ssa_visits_mentioning_blocks`)."""
 
     @functools.wraps(run_ssa)
     def _run_ssa(blocks):
@@ -762,9 +770,7 @@ def _ssa_visits_mentioning_blocks() -> bool:
             blk.body = philist + old.body
         return newblocks
 
-    ssa._run_ssa, ssa._fix_ssa_vars, ssa._run_block_rewrite = (
-        _run_ssa, _fix_ssa_vars, _run_block_rewrite)
-    return True
+    return _run_ssa, _fix_ssa_vars, _run_block_rewrite
 
 
 def _blocks_naming(blocks) -> dict:
