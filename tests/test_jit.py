@@ -5,6 +5,7 @@ import shutil
 import subprocess
 import sys
 import textwrap
+import types
 from pathlib import Path
 
 import numba
@@ -452,6 +453,11 @@ def test_the_numba_patches_keep_out_of_other_releases(release):
     assert "__wrapped__" not in vars(worker)["inline_function"].__dict__
     assert "__wrapped__" not in vars(context)["get_executable"].__dict__
     assert "__wrapped__" not in vars(template)["generic"].__dict__
+    from numba.core import ssa
+    module = types.SimpleNamespace(**{name: unwrapped(getattr(ssa, name)) for name in (
+        "_run_ssa", "_fix_ssa_vars", "_run_block_rewrite")})
+    assert not _jit._narrowed_in(module, release)
+    assert "__wrapped__" not in vars(module._run_ssa)
     config = type("Config", (), {"__hash__": lambda self: 0, "__eq__": lambda self, o: True})
     assert not _jit._quick_comparisons_in(config, [], release)
     assert vars(config)["__hash__"](None) == 0 and "__wrapped__" not in vars(config)
@@ -461,6 +467,8 @@ def test_the_numba_patches_keep_out_of_other_releases(release):
         assert _jit._declining_scalars_in(template, numba.__version__)
         assert vars(worker)["inline_function"].__wrapped__ is unwrapped(
             icc.InlineWorker.inline_function)
+        assert _jit._narrowed_in(module, numba.__version__)
+        assert module._run_ssa.__wrapped__ is unwrapped(ssa._run_ssa)
 
 
 def test_a_patch_keeps_out_of_other_sources():

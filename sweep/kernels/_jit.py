@@ -54,8 +54,7 @@ __all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "packag
            "jit", "cached_jit", "on_own_chunk", "FLAGS", "COMPILE_GC_THRESHOLDS",
            "PATCHED_NUMBA", "INLINE_IR_SOURCES", "INLINE_FUNCTION_SOURCES",
            "EXECUTABLE_SOURCES", "ARRAY_OPERATOR_SOURCES", "TARGET_CONFIG_SOURCES",
-           "SSA_SOURCES",
-           "OWN_CHUNK_SLOTS"]
+           "SSA_SOURCES", "OWN_CHUNK_SLOTS"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 _PACKAGE = _PACKAGE_DIR.name
@@ -713,14 +712,23 @@ def _ssa_visits_mentioning_blocks() -> bool:
     in :data:`SSA_SOURCES` of the releases in :data:`PATCHED_NUMBA`, to the package's
     compiles only.
     """
-    from numba.core import ir, ssa    # noqa: PLC0415 -- numba internals
+    from numba.core import ssa    # noqa: PLC0415 -- numba internals
 
-    functions = [getattr(ssa, name, None)
-                 for name in ("_run_ssa", "_fix_ssa_vars", "_run_block_rewrite")]
-    if not _known(functions, SSA_SOURCES, numba.__version__):
+    return _narrowed_in(ssa, numba.__version__)
+
+
+def _narrowed_in(ssa, version) -> bool:
+    """Replace ``_run_ssa``, ``_fix_ssa_vars`` and ``_run_block_rewrite`` of the module
+    ``ssa`` by :func:`_narrowed_ssa`'s, where numba ``version`` and their sources are
+    those :data:`SSA_SOURCES` knows; True where it does."""
+    from numba.core import ir     # noqa: PLC0415 -- numba internals
+
+    names = ("_run_ssa", "_fix_ssa_vars", "_run_block_rewrite")
+    functions = [getattr(ssa, name, None) for name in names]
+    if not _known(functions, SSA_SOURCES, version):
         return False
-    ssa._run_ssa, ssa._fix_ssa_vars, ssa._run_block_rewrite = _narrowed_ssa(ssa, ir,
-                                                                            *functions)
+    for name, wrapped in zip(names, _narrowed_ssa(ssa, ir, *functions)):
+        setattr(ssa, name, wrapped)
     return True
 
 

@@ -55,7 +55,8 @@ from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
                                  carry_last_stage, compensated_sum, out_of_budget, scratch,
                                  start, uneventful)
 from sweep.kernels.stepper import N_STAGES, local_error, rk_step_lanes
-from sweep.kernels.stepsize import StepPolicy, first_guess, policy, uncapped_guess
+from sweep.kernels.stepsize import (StepPolicy, first_guess, policy, uncapped,
+                                    uncapped_guess)
 
 __all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
 
@@ -68,6 +69,8 @@ N_ENDING = 9
 # Columns of a lane's state floats (SF) and ints (SI): the State's fields and its policy's.
 _T, _R, _RC, _V, _E0, _QS, _UMAX, _LW, _LQ, _H, _RHO, _SMIN, _STEPS, _OMEGA = range(14)
 _PHASE, _N, _EP1, _GRADED, _CAPPED, _LOCAL = range(6)
+# Column of the creep constants (CR) that the in-place steps read alone: Creep.ubar.
+_UBAR = 4
 
 
 class Lanes(NamedTuple):
@@ -170,19 +173,19 @@ def _put_state(ln, lane, st):
 def _put_creep(ln, lane, k):
     C = ln.CR
     C[lane, 0], C[lane, 1], C[lane, 2], C[lane, 3] = k.kappa, k.p, k.u_c, k.f_uc
-    C[lane, 4], C[lane, 5], C[lane, 6] = k.ubar, k.u_jump, k.u_t
+    C[lane, _UBAR], C[lane, 5], C[lane, 6] = k.ubar, k.u_jump, k.u_t
 
 
 @jit(inline="always")
 def _ubar_at(ln, lane):
-    return ln.CR[lane, 4]       # _put_creep's column of Creep.ubar
+    return ln.CR[lane, _UBAR]
 
 
 @jit(inline="always")
 def _creep_at(ln, lane):
     C = ln.CR
-    return Creep(C[lane, 0], C[lane, 1], C[lane, 2], C[lane, 3], C[lane, 4], C[lane, 5],
-                 C[lane, 6])
+    return Creep(C[lane, 0], C[lane, 1], C[lane, 2], C[lane, 3], _ubar_at(ln, lane),
+                 C[lane, 5], C[lane, 6])
 
 
 @jit(inline="always")
@@ -259,13 +262,15 @@ def _any(live):
 
 @jit(inline="always")
 def _guessed(ln, lane, budget):
-    """Where ``lane``'s policy is neither local nor capped and its budget not spent (most
-    steps), its next step's size (:func:`~sweep.kernels.stepsize.uncapped_guess`) in
-    ``ln.h`` and True; else False."""
-    n = ln.SI
-    if n[lane, _CAPPED] != 0 or n[lane, _LOCAL] != 0 or n[lane, _N] >= budget[ln.point[lane]]:
+    """Where ``lane``'s policy is :func:`~sweep.kernels.stepsize.uncapped` and its budget
+    not spent (most steps), its next step's size
+    (:func:`~sweep.kernels.stepsize.uncapped_guess`) in ``ln.h`` and True; else False."""
+    if ln.SI[lane, _N] >= budget[ln.point[lane]]:
         return False
-    ln.h[lane] = uncapped_guess(ln.u[lane], ln.SF[lane, _V], _policy_at(ln, lane))
+    p = _policy_at(ln, lane)
+    if not uncapped(p):
+        return False
+    ln.h[lane] = uncapped_guess(ln.u[lane], ln.SF[lane, _V], p)
     return True
 
 

@@ -77,9 +77,10 @@ __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "GRADE_EXPONENT",
            "MAX_DEPTH_FACTOR", "DEPTH_POWER", "NEWTON_FLOOR", "base_step",
            "damping_limited", "damping_step", "grading", "singular_exponent",
            "graded_by_exponent", "needs_grading", "graded_step",
-           "StepPolicy", "policy", "local_policy", "first_guess", "uncapped_guess",
-           "resolution", "ERROR_AT_GRADE_STEPS", "q_constants", "predicted_q", "tol_share",
-           "Q_REF", "P_MIN", "Q_STICK", "GAMMA_CALLABLE", "EPS_CALLABLE"]
+           "StepPolicy", "policy", "local_policy", "first_guess", "uncapped",
+           "uncapped_guess", "resolution", "ERROR_AT_GRADE_STEPS", "q_constants",
+           "predicted_q", "tol_share", "Q_REF", "P_MIN", "Q_STICK", "GAMMA_CALLABLE",
+           "EPS_CALLABLE"]
 
 #: Ratio of step to distance from u = 0 inside the graded zone, at ``GRADE_STEPS``.
 GRADE_RATIO = 0.25
@@ -457,16 +458,23 @@ def _towards_cap(s, cap, m):
 
 
 @jit(inline="always")
+def uncapped(p):
+    """The policy ``p`` is neither local nor capped (most steps'): :func:`first_guess` is
+    then :func:`uncapped_guess`."""
+    return not (p.local or p.capped)
+
+
+@jit(inline="always")
 def uncapped_guess(u, v, p):
-    """:func:`first_guess` where the policy ``p`` is neither local nor capped (most steps):
-    the base step, graded near u = 0."""
+    """:func:`first_guess` where the policy ``p`` is :func:`uncapped`: the base step,
+    graded near u = 0."""
     return graded_step(u, v, p.h, p.rho, p.s_min) if p.graded else p.h
 
 
 @jit(inline="always")
 def first_guess(u, v, p, c):
     """Step from state (u, v) before the damping cap is judged at the step's end."""
-    if not (p.local or p.capped):
+    if uncapped(p):
         return uncapped_guess(u, v, p)
     h, s_min = _base(u, p, c)
     # A local policy is always graded: its base step grows without bound as u falls (for
