@@ -78,13 +78,14 @@ def all_lanes(n, gamma, gtilde):
     LF, LI = np.empty((LANES, LAW_COLUMNS[0])), np.empty((LANES, LAW_COLUMNS[1]), np.int64)
     u, w, h = np.full(LANES, 0.3), np.full(LANES, 0.2), np.full(LANES, _H)
     live, y = np.ones(LANES, np.bool_), np.empty((LANES, 3))
+    S = np.empty(2 * N_STAGES * LANES)
     for l in range(LANES):
         c = make_law(1.5, 1.5, (1.0 + 0.1 * l) * gamma, gtilde)
         put_law(LF, LI, l, c)
         K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = rhs(u[l], w[l], c)
     acc = 0.0
     for _ in range(n // LANES):
-        rk_step_lanes(u, w, h, K, LF, LI, live, y)
+        rk_step_lanes(u, w, h, K, LF, LI, live, y, S)
         for l in range(LANES):
             u[l], w[l] = y[l, 0], y[l, 1]
             K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = K[l, 6, 0], K[l, 6, 1], K[l, 6, 2]

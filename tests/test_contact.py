@@ -101,6 +101,52 @@ def test_a_law_read_from_its_row_gives_the_laws_own_rates_bit_for_bit(alpha, bet
         assert abs(got[1] - (gtilde - pa)) <= 8 * EPS * (gtilde + pa)
 
 
+@numba.njit(**FLAGS)
+def _vector_rows(u, w, alpha, beta, gamma, gtilde):
+    """rhs_vector on rows put_law stores, four at a time, beside rhs_at on each row."""
+    n = u.size
+    F = np.empty((n, contact.LAW_COLUMNS[0]))
+    I = np.empty((n, contact.LAW_COLUMNS[1]), np.int64)
+    out = np.empty((n, 6))
+    for r in range(n):
+        contact.put_law(F, I, r, contact.make_law(alpha[r], beta[r], gamma[r], gtilde[r]))
+        out[r, 3], out[r, 4], out[r, 5] = contact.rhs_at(u[r], w[r], F, I, r)
+    for f in range(0, n, 4):
+        fu, fw, fq = contact.rhs_vector((u[f], u[f + 1], u[f + 2], u[f + 3]),
+                                        (w[f], w[f + 1], w[f + 2], w[f + 3]),
+                                        contact.vector_law(F, I, f))
+        for k in range(4):
+            out[f + k, 0], out[f + k, 1], out[f + k, 2] = fu[k], fw[k], fq[k]
+    return out
+
+
+def test_rows_taken_as_vectors_give_each_row_its_rates_bit_for_bit():
+    # The stages of four lanes go as vectors (stepper.rk_step_lanes) wherever
+    # contact.vector_law_at says their laws are ones rhs_vector forms: every model of the
+    # report with alpha = 3/2, mixed among the four rows, at every kind of u.
+    laws = [(a, b) for a, b in MODELS.values() if a == 1.5]
+    rng = np.random.default_rng(12)
+    u = np.repeat(ROW_U, 8)
+    pick = rng.integers(len(laws), size=u.size)
+    alpha = np.array([laws[k][0] for k in pick])
+    beta = np.array([laws[k][1] for k in pick])
+    w, gamma = rng.uniform(-2, 2, u.size), 10 ** rng.uniform(-4, 2, u.size)
+    gtilde = np.where(rng.random(u.size) < 0.2, 0.0, rng.uniform(0, 5, u.size))
+    got = _vector_rows(u, w, alpha, beta, gamma, gtilde)
+    assert np.array_equal(got[:, :3], got[:, 3:]), got[np.any(got[:, :3] != got[:, 3:], 1)]
+    assert len(laws) == 4 and all(
+        contact.vector_law_at.py_func(_row_codes(a, b), 0) for a, b in laws)
+    assert not any(contact.vector_law_at.py_func(_row_codes(a, b), 0)
+                   for a, b in [(1.0, 1.0), (2.0, 3.0), (2.81, 1.37), (1.5, 1.37)])
+
+
+def _row_codes(alpha, beta):
+    I = np.empty((1, contact.LAW_COLUMNS[1]), np.int64)
+    contact.put_law.py_func(np.empty((1, contact.LAW_COLUMNS[0])), I, 0,
+                            contact.make_law.py_func(alpha, beta, 0.1, 0.1))
+    return I
+
+
 @pytest.mark.parametrize("kind", sorted(contact._POSITIVE_POWER))
 def test_the_models_power_formulas_are_the_coded_powers(kind):
     # rhs_at's copies take _POSITIVE_POWER's formulas; the coded power writes them out.

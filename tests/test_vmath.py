@@ -165,3 +165,50 @@ def test_sqrt_div4_is_ieee_sqrt_and_division():
     root, ratio = _sqrt_div_by_fours(x, y)
     with np.errstate(divide="ignore"):
         assert np.array_equal(root, np.sqrt(x)) and np.array_equal(ratio, y / np.sqrt(x))
+
+
+# ------------------------------------------------------------- elementwise tuple operations
+
+_N = vmath.VECTOR
+
+
+@numba.njit
+def _elementwise(x, y):
+    """Each operation alone over x, y by tuples of VECTOR (no neighbour to fuse with)."""
+    out = np.empty((7, x.size))
+    for i in range(0, x.size, _N):
+        a, b = vmath.vload(x, i), vmath.vload(y, i)
+        vmath.vstore(out[0], i, vmath.vadd(a, b))
+        vmath.vstore(out[1], i, vmath.vsub(a, b))
+        vmath.vstore(out[2], i, vmath.vmul(a, 0.7))
+        vmath.vstore(out[3], i, vmath.vsqrt(b))
+        vmath.vstore(out[4], i, vmath.vwhere_positive(a, b, -1.0))
+        vmath.vstore(out[5], i, vmath.vwhere_nonnegative(a, 2.0, b))
+        vmath.vscatter(out[6], i, 1, vmath.vwhere_equal((i, i + 1, i + 2, i + 3), i + 2, a, b))
+    return out
+
+
+def test_tuple_operations_are_the_scalar_ones_element_by_element():
+    rng = np.random.default_rng(6)
+    x = rng.normal(size=4096) * 10 ** rng.uniform(-5, 5, 4096)
+    x[::13], x[1::17] = 0.0, -0.0
+    y = np.abs(rng.normal(size=x.size)) * 10 ** rng.uniform(-300, 300, x.size)
+    got = _elementwise(x, y)
+    k = np.arange(x.size) % _N
+    want = [x + y, x - y, x * 0.7, np.sqrt(y), np.where(x > 0, y, -1.0),
+            np.where(x >= 0, 2.0, y), np.where(k == 2, x, y)]
+    for row, ref in zip(got, want):
+        assert np.array_equal(row, ref)
+    assert _N == 4     # the writing of vwhere_equal's codes above
+
+
+@numba.njit
+def _scattered(t, stride):
+    a = np.zeros(3 + stride * _N)
+    vmath.vscatter(a, 3, stride, t)
+    return a
+
+
+def test_scatter_puts_each_element_at_its_stride():
+    a = _scattered((1.0, 2.0, 3.0, 4.0), 5)
+    assert list(a[3::5]) == [1.0, 2.0, 3.0, 4.0] and a.sum() == 10.0

@@ -22,14 +22,16 @@ from typing import NamedTuple
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.vmath import exp1, log1
+from sweep.kernels.vmath import (exp1, log1, vmul, vsqrt, vsub, vwhere_equal,
+                                 vwhere_nonnegative, vwhere_positive)
 from sweep.registry import MODELS, PARAMETERS
 
 __all__ = ["Law", "make_law", "put_law", "law_at", "LAW_COLUMNS", "rhs_at", "power_kind", "ppow",
            "ppow_called", "rhs", "rhs_called", "velocity", "accel", "dissipated", "potential",
            "damping_rate", "equilibrium", "well_depth", "damping_ratio", "natural_frequency",
            "umax_undamped", "elastic_frequency", "in_domain", "KIND_ONE", "general_exponents",
-           "general_at", "general_arguments", "rhs_general", "gtilde_at"]
+           "general_at", "general_arguments", "rhs_general", "gtilde_at", "vector_law_at",
+           "vector_law", "rhs_vector"]
 
 # Exponents of the report's models get a pow-free evaluation: pow() dominates the cost of a
 # stage, and sqrt is exact-rounded and several times cheaper.
@@ -372,6 +374,57 @@ def rhs_at(u, w, F, I, row):
         if k == 3:
             return _rhs_m3(u, w, gamma, gtilde)
     return _rhs_coded_called(u, w, law_at(F, I, row))
+
+
+# The powers that rhs_vector forms for all lanes at once: alpha = 3/2, and u^(beta-1) for
+# the report's beta (1, 5/4, 3/2, 5/2: Hertz, TTI, KK, SHC).
+@jit(inline="always")
+def vector_law_at(I, row):
+    """The law in ``row`` of ``I`` (:func:`put_law`) is one whose stages
+    :func:`rhs_vector` forms: alpha = 3/2 and beta one of the report's (Hertz, TTI, KK,
+    SHC)."""
+    kd = I[row, 2]
+    return I[row, 0] == _KIND_THREE_HALVES and I[row, 3] == 0 and (
+        kd == _KIND_ZERO or kd == _KIND_QUARTER or kd == _KIND_HALF
+        or kd == _KIND_THREE_HALVES)
+
+
+@jit(inline="always")
+def vector_law(F, I, first):
+    """The laws of the :data:`~sweep.kernels.vmath.VECTOR` rows of ``F, I`` from
+    ``first`` (:func:`put_law`) as tuples, one element a row: ``(kd, beta, gamma, g~)``."""
+    return ((I[first, 2], I[first + 1, 2], I[first + 2, 2], I[first + 3, 2]),
+            _column(F, first, 1), _column(F, first, 2), _column(F, first, 3))
+
+
+@jit(inline="always")
+def _column(F, first, col):
+    return (F[first, col], F[first + 1, col], F[first + 2, col], F[first + 3, col])
+
+
+@jit(inline="always")
+def rhs_vector(u, w, law):
+    """:func:`rhs_at` of the rows of :func:`vector_law` (each a law of
+    :func:`vector_law_at`) at the tuples ``(u, w)``, as vector operations: each element
+    has the bits of :func:`rhs_at`'s (its model's copy of :func:`rhs`: the same formulas in
+    the same order; tests/test_contact.py)."""
+    kd, beta, gamma, gtilde = law
+    x = vwhere_positive(u, u, 1.0)
+    s = vsqrt(x)
+    t = vmul(x, s)                               # u^(3/2)
+    pos = vwhere_equal(kd, _KIND_HALF, s, vwhere_equal(kd, _KIND_QUARTER, vsqrt(s),
+                                                       vwhere_equal(kd, _KIND_THREE_HALVES,
+                                                                    t, 1.0)))
+    # u^(beta-1) for u > 0; at u <= 0 the contact indicator (beta = 1) or 0.
+    pd = vwhere_positive(u, pos, vwhere_equal(kd, _KIND_ZERO,
+                                              vwhere_nonnegative(u, 1.0, 0.0), 0.0))
+    pb = vwhere_positive(u, vmul(u, pd), 0.0)
+    pa = vwhere_positive(u, t, 0.0)
+    # _forces, operation for operation.
+    v = vsub(w, vmul(gamma, pb))
+    fq = vmul(vmul(vmul(gamma, -1.0), pb),
+              vsub(vsub(gtilde, pa), vmul(vmul(vmul(gamma, beta), pd), v)))
+    return v, vsub(gtilde, pa), fq
 
 
 @jit(inline="always")

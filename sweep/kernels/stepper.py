@@ -17,9 +17,9 @@ import numpy as np
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import (general_arguments, general_at, rhs, rhs_at, rhs_called,
-                                   rhs_general)
+                                   rhs_general, rhs_vector, vector_law, vector_law_at)
 from sweep.kernels.tableau import DORMAND_PRINCE_54
-from sweep.kernels.vmath import exp4, log4
+from sweep.kernels.vmath import VECTOR, exp4, log4, vadd, vload, vmul, vscatter, vstore
 
 __all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "rk_stage", "stage_point", "rk_combine",
            "local_error", "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
@@ -138,35 +138,92 @@ rk_step_inline = jit(inline="always")(_step_with(rhs))
 
 
 @jit(inline="always")
-def rk_step_lanes(u, w, h, K, LF, LI, live, y):
+def rk_step_lanes(u, w, h, K, LF, LI, live, y, S):
     """:func:`rk_step` for several points at once: lane ``l`` (where ``live[l]``) steps
     ``(u[l], w[l])`` by ``h[l]`` with the law in row ``l`` of ``LF, LI``
     (:func:`sweep.kernels.contact.rhs_at`), its stages in ``K[l]`` (``K[l, 0]`` = f at the
     start on entry), its ``(u_new, w_new, dr)`` in ``y[l]``; the number of lanes a multiple
-    of four (:func:`_general_stage`).
+    of four (:func:`_general_stage`). ``S``: scratch, ``2 N_STAGES`` times the lanes.
 
     Each stage is formed for every lane before the next: the lanes' chains of dependent
     operations (each stage waits on the power of u of the one before) overlap, where one
-    point's chain leaves the core waiting on latency (``benchmarks/lanes.py``). Per lane
-    the arithmetic is :func:`rk_step`'s, operation for operation.
+    point's chain leaves the core waiting on latency (``benchmarks/lanes.py``). Groups of
+    lanes whose laws :func:`~sweep.kernels.contact.rhs_vector` takes go as vectors
+    (:func:`_vector_stage`). Per lane the arithmetic is :func:`rk_step`'s, operation for
+    operation.
     """
+    vec = _vector_groups(K, LI, S)
     for i in range(1, N_STAGES):
         pending = 0
-        for lane in range(live.size):
-            if live[lane]:
-                ui, wi = _stage_point_lane(i, u[lane], w[lane], h[lane], K, lane)
-                if ui > 0.0 and general_at(LI, lane):
-                    # Its log and exps come with the other lanes' (_general_stage).
-                    K[lane, i, 0], K[lane, i, 1] = ui, wi
-                    pending |= 1 << lane
-                else:
-                    K[lane, i, 0], K[lane, i, 1], K[lane, i, 2] = rhs_at(ui, wi, LF, LI, lane)
+        for first in range(0, live.size, VECTOR):
+            if vec >> first & 1:
+                _vector_stage(i, first, u, w, h, K, LF, LI, S)
+                continue
+            for lane in range(first, first + VECTOR):
+                if live[lane]:
+                    ui, wi = _stage_point_lane(i, u[lane], w[lane], h[lane], K, lane)
+                    if ui > 0.0 and general_at(LI, lane):
+                        # Its log and exps come with the other lanes' (_general_stage).
+                        K[lane, i, 0], K[lane, i, 1] = ui, wi
+                        pending |= 1 << lane
+                    else:
+                        K[lane, i, 0], K[lane, i, 1], K[lane, i, 2] = rhs_at(ui, wi, LF, LI,
+                                                                             lane)
         if pending:
             _general_stage(i, K, LF, pending)
     for lane in range(live.size):
         if live[lane]:
             y[lane, 0], y[lane, 1], y[lane, 2] = _combine_lane(u[lane], w[lane], h[lane], K,
                                                                lane)
+
+
+@jit(inline="always")
+def _vector_groups(K, LI, S):
+    """Bit ``first`` set for each group of lanes ``first ..`` whose laws all take
+    :func:`~sweep.kernels.contact.rhs_vector` (idle lanes too: their results are not
+    read), their first stage copied into ``S`` (:func:`_vector_stage`)."""
+    vec = 0
+    n = K.shape[0]
+    for first in range(0, n, VECTOR):
+        ok = True
+        for lane in range(first, first + VECTOR):
+            ok = ok and vector_law_at(LI, lane)
+        if ok:
+            vec |= 1 << first
+            # Element by element into a vector store: a vector load of elements stored
+            # one by one waits for the stores to complete.
+            vstore(S, first, _elements(K[:, 0, 0], first))
+            vstore(S, n + first, _elements(K[:, 0, 1], first))
+    return vec
+
+
+@jit(inline="always")
+def _elements(a, first):
+    return (a[first], a[first + 1], a[first + 2], a[first + 3])
+
+
+@jit(inline="always")
+def _vector_stage(i, first, u, w, h, K, LF, LI, S):
+    """Stage ``i`` of the lanes ``first ..`` as vectors: the stage point as
+    :func:`stage_point`'s from the u and w components of the stages before in ``S``
+    (stage j's at ``2 j n`` and ``(2 j + 1) n``, n lanes), the forces of
+    :func:`~sweep.kernels.contact.rhs_vector`."""
+    n = K.shape[0]
+    du = dw = (0.0, 0.0, 0.0, 0.0)
+    for j in range(i):
+        a = _A[i, j]
+        du = vadd(du, vmul(a, vload(S, 2 * j * n + first)))
+        dw = vadd(dw, vmul(a, vload(S, (2 * j + 1) * n + first)))
+    h4 = _elements(h, first)
+    fu, fw, fq = rhs_vector(vadd(_elements(u, first), vmul(h4, du)),
+                            vadd(_elements(w, first), vmul(h4, dw)),
+                            vector_law(LF, LI, first))
+    vstore(S, 2 * i * n + first, fu)
+    vstore(S, (2 * i + 1) * n + first, fw)
+    stride = K.shape[1] * K.shape[2]
+    vscatter(K, first * stride + 3 * i, stride, fu)
+    vscatter(K, first * stride + 3 * i + 1, stride, fw)
+    vscatter(K, first * stride + 3 * i + 2, stride, fq)
 
 
 # Lanes whose powers go to the vector functions together: vmath's 4-tuples, built and

@@ -35,7 +35,8 @@ operations, the bits of the scalar ones). libmvec's expm1
 came with glibc 2.35: :data:`HAS` says which functions it has here, and a
 function it lacks is math's call element by element.
 
-Owns: the vector exp, log, expm1 and the choice of their variant. May import: nothing from
+Owns: the vector exp, log, expm1 and the choice of their variant; the elementwise
+operations on tuples. May import: nothing from
 ``sweep`` but _jit.
 """
 from __future__ import annotations
@@ -53,7 +54,9 @@ from numba.extending import intrinsic
 
 from sweep.kernels._jit import jit
 
-__all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log4", "exp4", "expm1_4", "sqrt_div4", "HAS"]
+__all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log4", "exp4", "expm1_4", "sqrt_div4", "HAS",
+           "VECTOR", "vadd", "vsub", "vmul", "vsqrt", "vwhere_positive", "vwhere_nonnegative",
+           "vwhere_equal", "vload", "vstore"]
 
 # libmvec's variants, in order of preference: (CPU feature, name letter of the x86_64
 # vector ABI, doubles per vector). AVX2 before AVX-512: on the AMD EPYC (Zen 4) where it was
@@ -226,3 +229,171 @@ def _pack(builder, vt, values, pad=None):
     for k, e in enumerate(values):
         v = builder.insert_element(v, e, ir.Constant(ir.IntType(32), k))
     return v
+
+
+#: Elements of the tuples of the elementwise operations below (:func:`vadd` .. :func:`vscatter`):
+#: IEEE operations on tuples of float64 as vector instructions, each element with the bits
+#: of the scalar operation (kernels' contraction included), for the stages of groups of the
+#: array kernels' lanes (:func:`sweep.kernels.stepper.rk_step_lanes`). An operand may be a
+#: float64, taken for every element. Four: groups of eight lanes, their stages unrolled,
+#: cost 2-3 s more of first compile for no speed on KK (docs/speed/history.md, 2026-12-05).
+VECTOR = 4
+_VT = ir.VectorType(ir.DoubleType(), VECTOR)
+_CONTRACT = ("contract",)
+_I32 = ir.IntType(32)
+
+
+def _is_vector(t, dtype=types.float64):
+    return isinstance(t, types.UniTuple) and t.count == VECTOR and t.dtype == dtype
+
+
+def _operand(t):
+    if not (_is_vector(t) or t == types.float64):
+        raise numba.core.errors.TypingError(f"a {VECTOR}-tuple of float64 or a float64 is needed, "
+                                            f"got {t}")
+
+
+def _vector(builder, t, value):
+    """The vector of a :data:`VECTOR`-tuple, or of a float64 in every element."""
+    if isinstance(t, types.UniTuple):
+        return _pack(builder, _VT, cgutils.unpack_tuple(builder, value))
+    return _pack(builder, _VT, [value] * VECTOR)
+
+
+def _tuple(context, builder, vector):
+    return context.make_tuple(builder, types.UniTuple(types.float64, VECTOR), [
+        builder.extract_element(vector, ir.Constant(_I32, k)) for k in range(VECTOR)])
+
+
+def _binary(operation):
+    @intrinsic
+    def of(typingctx, x, y):
+        _operand(x)
+        _operand(y)
+        ret = types.UniTuple(types.float64, VECTOR)
+
+        def codegen(context, builder, signature, args):
+            a, b = (_vector(builder, t, v) for t, v in zip(signature.args, args))
+            # With the kernels' one fastmath flag (sweep.kernels._jit.FLAGS): a product
+            # and a sum fuse here as they do in the scalar code.
+            return _tuple(context, builder, getattr(builder, operation)(a, b,
+                                                                         flags=_CONTRACT))
+        return ret(x, y), codegen
+    return of
+
+
+#: ``x + y``, ``x - y``, ``x * y`` element by element (a float64 operand: every element).
+vadd, vsub, vmul = _binary("fadd"), _binary("fsub"), _binary("fmul")
+
+
+@intrinsic
+def vsqrt(typingctx, x):
+    """``math.sqrt`` of each element of a :data:`VECTOR`-tuple of float64 (one vector root)."""
+    if not _is_vector(x):
+        raise numba.core.errors.TypingError(f"a {VECTOR}-tuple of float64 is needed, got {x}")
+
+    def codegen(context, builder, signature, args):
+        sqrt = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_VT, [_VT]),
+                                              f"llvm.sqrt.v{VECTOR}f64")
+        return _tuple(context, builder, builder.call(sqrt, [_vector(builder, x, args[0])]))
+    return x(x), codegen
+
+
+def _where(predicate):
+    @intrinsic
+    def where(typingctx, x, a, b):
+        if not _is_vector(x):
+            raise numba.core.errors.TypingError(f"a {VECTOR}-tuple of float64 is needed, got {x}")
+        _operand(a)
+        _operand(b)
+        ret = types.UniTuple(types.float64, VECTOR)
+
+        def codegen(context, builder, signature, args):
+            xv, av, bv = (_vector(builder, t, v) for t, v in zip(signature.args, args))
+            zero = ir.Constant(_VT, [0.0] * VECTOR)
+            return _tuple(context, builder,
+                          builder.select(builder.fcmp_ordered(predicate, xv, zero), av, bv))
+        return ret(x, a, b), codegen
+    return where
+
+
+#: ``a if x > 0 else b`` and ``a if x >= 0 else b`` element by element.
+vwhere_positive, vwhere_nonnegative = _where(">"), _where(">=")
+
+
+@intrinsic
+def vwhere_equal(typingctx, k, value, a, b):
+    """``a if k == value else b`` element by element, ``k`` a :data:`VECTOR`-tuple of int64."""
+    if not (_is_vector(k, types.int64) and isinstance(value, types.Integer)):
+        raise numba.core.errors.TypingError(f"a {VECTOR}-tuple of int64 and an integer are needed, "
+                                            f"got {k} and {value}")
+    _operand(a)
+    _operand(b)
+    ret = types.UniTuple(types.float64, VECTOR)
+
+    def codegen(context, builder, signature, args):
+        vi = ir.VectorType(ir.IntType(64), VECTOR)
+        kv = _pack(builder, vi, cgutils.unpack_tuple(builder, args[0]))
+        val = context.cast(builder, args[1], value, types.int64)
+        test = builder.icmp_signed("==", kv, _pack(builder, vi, [val] * VECTOR))
+        av, bv = (_vector(builder, t, v) for t, v in zip(signature.args[2:], args[2:]))
+        return _tuple(context, builder, builder.select(test, av, bv))
+    return ret(k, value, a, b), codegen
+
+
+@intrinsic
+def vload(typingctx, arr, start):
+    """``(a[start], .., a[start + VECTOR - 1])`` of a C-contiguous one-dimensional float64 array, as
+    one vector load (no bounds check)."""
+    if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout == "C"
+            and arr.dtype == types.float64 and isinstance(start, types.Integer)):
+        raise numba.core.errors.TypingError(f"a C-contiguous float64 vector and an index are "
+                                            f"needed, got {arr} and {start}")
+
+    def codegen(context, builder, signature, args):
+        data = context.make_array(arr)(context, builder, args[0]).data
+        ptr = builder.gep(data, [context.cast(builder, args[1], start, types.intp)])
+        v = builder.load(builder.bitcast(ptr, _VT.as_pointer()), align=8)
+        return _tuple(context, builder, v)
+    return types.UniTuple(types.float64, VECTOR)(arr, start), codegen
+
+
+@intrinsic
+def vstore(typingctx, arr, start, t):
+    """``a[start:start + VECTOR] = t`` for a C-contiguous one-dimensional float64 array and a
+    :data:`VECTOR`-tuple of float64, as one vector store (no bounds check)."""
+    if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout == "C"
+            and arr.dtype == types.float64 and isinstance(start, types.Integer)
+            and _is_vector(t)):
+        raise numba.core.errors.TypingError(f"a C-contiguous float64 vector, an index and a "
+                                            f"{VECTOR}-tuple are needed, got {arr}, {start}, {t}")
+
+    def codegen(context, builder, signature, args):
+        data = context.make_array(arr)(context, builder, args[0]).data
+        ptr = builder.gep(data, [context.cast(builder, args[1], start, types.intp)])
+        builder.store(_vector(builder, t, args[2]), builder.bitcast(ptr, _VT.as_pointer()),
+                      align=8)
+        return context.get_dummy_value()
+    return types.none(arr, start, t), codegen
+
+
+@intrinsic
+def vscatter(typingctx, arr, start, stride, t):
+    """``a.flat[start + k stride] = t[k]`` for a C-contiguous float64 array and a
+    :data:`VECTOR`-tuple of float64, element by element (no bounds check)."""
+    if not (isinstance(arr, types.Array) and arr.layout == "C" and arr.dtype == types.float64
+            and isinstance(start, types.Integer) and isinstance(stride, types.Integer)
+            and _is_vector(t)):
+        raise numba.core.errors.TypingError(f"a C-contiguous float64 array, two indices and a "
+                                            f"{VECTOR}-tuple are needed, got {arr}, {start}, "
+                                            f"{stride}, {t}")
+
+    def codegen(context, builder, signature, args):
+        data = context.make_array(arr)(context, builder, args[0]).data
+        first = context.cast(builder, args[1], start, types.intp)
+        step = context.cast(builder, args[2], stride, types.intp)
+        for k, value in enumerate(cgutils.unpack_tuple(builder, args[3])):
+            at = builder.add(first, builder.mul(step, ir.Constant(step.type, k)))
+            builder.store(value, builder.gep(data, [at]))
+        return context.get_dummy_value()
+    return types.none(arr, start, stride, t), codegen
