@@ -23,7 +23,8 @@ import numpy as np
 from sweep.kernels._jit import FLAGS
 from sweep.kernels.contact import LAW_COLUMNS, make_law, put_law, rhs
 from sweep.kernels.lanes import LANES
-from sweep.kernels.stepper import N_STAGES, rk_combine, rk_stage, rk_step_lanes
+from sweep.kernels.stepper import (N_STAGES, SCRATCH, rk_combine, rk_stage, rk_step_lanes,
+                                   vector_groups)
 
 _H = 1e-9      # a tiny step keeps the state, and so the work per stage, the same throughout
 
@@ -77,15 +78,16 @@ def all_lanes(n, gamma, gtilde):
     K = np.empty((LANES, N_STAGES, 3))
     LF, LI = np.empty((LANES, LAW_COLUMNS[0])), np.empty((LANES, LAW_COLUMNS[1]), np.int64)
     u, w, h = np.full(LANES, 0.3), np.full(LANES, 0.2), np.full(LANES, _H)
-    live, y = np.ones(LANES, np.bool_), np.empty((LANES, 3))
-    S = np.empty(2 * N_STAGES * LANES)
+    live, y = np.ones(LANES, np.bool_), np.empty((LANES, 5))
+    S = np.empty(SCRATCH * LANES)
     for l in range(LANES):
         c = make_law(1.5, 1.5, (1.0 + 0.1 * l) * gamma, gtilde)
         put_law(LF, LI, l, c)
         K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = rhs(u[l], w[l], c)
+    vec = vector_groups(LI)
     acc = 0.0
     for _ in range(n // LANES):
-        rk_step_lanes(u, w, h, K, LF, LI, live, y, S)
+        rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec)
         for l in range(LANES):
             u[l], w[l] = y[l, 0], y[l, 1]
             K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = K[l, 6, 0], K[l, 6, 1], K[l, 6, 2]

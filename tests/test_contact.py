@@ -10,7 +10,7 @@ import numba
 import numpy as np
 import pytest
 
-from sweep.kernels import contact
+from sweep.kernels import contact, vmath
 from sweep.kernels._jit import FLAGS
 from sweep.kernels.creep import slow_velocity
 from sweep.registry import MODELS
@@ -112,9 +112,9 @@ def _vector_rows(u, w, alpha, beta, gamma, gtilde):
         contact.put_law(F, I, r, contact.make_law(alpha[r], beta[r], gamma[r], gtilde[r]))
         out[r, 3], out[r, 4], out[r, 5] = contact.rhs_at(u[r], w[r], F, I, r)
     for f in range(0, n, 4):
-        fu, fw, fq = contact.rhs_vector((u[f], u[f + 1], u[f + 2], u[f + 3]),
-                                        (w[f], w[f + 1], w[f + 2], w[f + 3]),
-                                        contact.vector_law(F, I, f))
+        f3 = contact.rhs_vector((u[f], u[f + 1], u[f + 2], u[f + 3]),
+                                (w[f], w[f + 1], w[f + 2], w[f + 3]), contact.vector_law(F, I, f))
+        fu, fw, fq = vmath.vtuple(f3[0]), vmath.vtuple(f3[1]), vmath.vtuple(f3[2])
         for k in range(4):
             out[f + k, 0], out[f + k, 1], out[f + k, 2] = fu[k], fw[k], fq[k]
     return out

@@ -175,7 +175,7 @@ _N = vmath.VECTOR
 @numba.njit
 def _elementwise(x, y):
     """Each operation alone over x, y by tuples of VECTOR (no neighbour to fuse with)."""
-    out = np.empty((7, x.size))
+    out = np.empty((9, x.size))
     for i in range(0, x.size, _N):
         a, b = vmath.vload(x, i), vmath.vload(y, i)
         vmath.vstore(out[0], i, vmath.vadd(a, b))
@@ -185,6 +185,11 @@ def _elementwise(x, y):
         vmath.vstore(out[4], i, vmath.vwhere_positive(a, b, -1.0))
         vmath.vstore(out[5], i, vmath.vwhere_nonnegative(a, 2.0, b))
         vmath.vscatter(out[6], i, 1, vmath.vwhere_equal((i, i + 1, i + 2, i + 3), i + 2, a, b))
+        codes = (float(i % 3), 1.0, float(i % 5), 2.0)
+        vmath.vstore(out[7], i, vmath.vwhere_equal(codes, 2, a, b))
+        # A root where a code matches; none in the blocks where i % 3 and i % 5 differ
+        # from 1, whose result is b (the branch without the root).
+        vmath.vstore(out[8], i, vmath.vsqrt_where_equal((i % 3, 0, i % 5, 0), 1, b, a))
     return out
 
 
@@ -195,8 +200,14 @@ def test_tuple_operations_are_the_scalar_ones_element_by_element():
     y = np.abs(rng.normal(size=x.size)) * 10 ** rng.uniform(-300, 300, x.size)
     got = _elementwise(x, y)
     k = np.arange(x.size) % _N
+    i = np.arange(0, x.size, _N)
+    codes = np.stack([i % 3, np.ones_like(i), i % 5, np.full_like(i, 2)], 1).ravel()
+    no = np.zeros(i.size, bool)
+    roots = np.stack([i % 3 == 1, no, i % 5 == 1, no], 1).ravel()
     want = [x + y, x - y, x * 0.7, np.sqrt(y), np.where(x > 0, y, -1.0),
-            np.where(x >= 0, 2.0, y), np.where(k == 2, x, y)]
+            np.where(x >= 0, 2.0, y), np.where(k == 2, x, y), np.where(codes == 2, x, y),
+            np.where(roots, np.sqrt(y), x)]
+    assert 0 < roots.sum() < x.size / 2
     for row, ref in zip(got, want):
         assert np.array_equal(row, ref)
     assert _N == 4     # the writing of vwhere_equal's codes above

@@ -22,8 +22,8 @@ from typing import NamedTuple
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.vmath import (exp1, log1, vmul, vsqrt, vsub, vwhere_equal,
-                                 vwhere_nonnegative, vwhere_positive)
+from sweep.kernels.vmath import (exp1, log1, vmul, vsqrt, vsqrt_where_equal, vsub,
+                                 vwhere_equal, vwhere_nonnegative, vwhere_positive)
 from sweep.registry import MODELS, PARAMETERS
 
 __all__ = ["Law", "make_law", "put_law", "law_at", "LAW_COLUMNS", "rhs_at", "power_kind", "ppow",
@@ -392,8 +392,10 @@ def vector_law_at(I, row):
 @jit(inline="always")
 def vector_law(F, I, first):
     """The laws of the :data:`~sweep.kernels.vmath.VECTOR` rows of ``F, I`` from
-    ``first`` (:func:`put_law`) as tuples, one element a row: ``(kd, beta, gamma, g~)``."""
-    return ((I[first, 2], I[first + 1, 2], I[first + 2, 2], I[first + 3, 2]),
+    ``first`` (:func:`put_law`) as tuples, one element a row, for :func:`rhs_vector`:
+    ``(kd, beta, gamma, g~)``, the power codes as float64."""
+    return ((float(I[first, 2]), float(I[first + 1, 2]), float(I[first + 2, 2]),
+             float(I[first + 3, 2])),
             _column(F, first, 1), _column(F, first, 2), _column(F, first, 3))
 
 
@@ -412,9 +414,8 @@ def rhs_vector(u, w, law):
     x = vwhere_positive(u, u, 1.0)
     s = vsqrt(x)
     t = vmul(x, s)                               # u^(3/2)
-    pos = vwhere_equal(kd, _KIND_HALF, s, vwhere_equal(kd, _KIND_QUARTER, vsqrt(s),
-                                                       vwhere_equal(kd, _KIND_THREE_HALVES,
-                                                                    t, 1.0)))
+    pos = vsqrt_where_equal(kd, _KIND_QUARTER, s, vwhere_equal(
+        kd, _KIND_HALF, s, vwhere_equal(kd, _KIND_THREE_HALVES, t, 1.0)))
     # u^(beta-1) for u > 0; at u <= 0 the contact indicator (beta = 1) or 0.
     pd = vwhere_positive(u, pos, vwhere_equal(kd, _KIND_ZERO,
                                               vwhere_nonnegative(u, 1.0, 0.0), 0.0))

@@ -8,7 +8,7 @@ together: every stage is formed for all lanes before the next
 overlap, and everything else of a step -- its size, the damping cap, the events, the
 stopping rules -- is the one-point march's own code (:func:`sweep.kernels.stepsize.first_guess`,
 :func:`sweep.kernels.march.after_stages_estimated`), run per lane; only the step's local
-error estimates are formed for all lanes in one loop first (:func:`_local_errors`). Most
+error estimates are formed with the stages, for all lanes (``rk_step_lanes``). Most
 steps need none of that code but their size and the state moved on
 (:func:`sweep.kernels.march.uneventful`): those lanes' fields are read and written in
 place (:func:`_guessed`, :func:`_moved_on`). A lane
@@ -29,12 +29,13 @@ latency to hide them, those updates took 70% of the time (``perf``: the ``lock``
 ``NRT_incref`` and ``NRT_decref``); in the one-point march they hide in its latency.
 
 Where every lane of a group of four marches a law of the report with alpha = 3/2 (Hertz,
-TTI, KK, SHC), the group's stages go as vectors of its lanes
-(:func:`sweep.kernels.contact.rhs_vector`): TTI's two nested roots a stage are then two
-vector roots for the group (16% more TTI points a second, 2026-12-05).
+TTI, KK, SHC: :func:`sweep.kernels.stepper.vector_groups`, judged when lanes take points),
+the group's stages, their combination and local error estimates go as vectors of its
+lanes (:func:`sweep.kernels.contact.rhs_vector`): 10-17% more points a second on those
+laws (2026-12-05).
 
-Cost (one core, KK, ``python benchmarks/step_cost.py``): 40 ns a step on 2026-12-05,
-51 before the uneventful steps were moved in place, 48-53 ns on 2026-12-01 (against 78 for
+Cost (one core, KK, ``python benchmarks/step_cost.py``): 34-36 ns a step with the vector
+stages, 40 before them on 2026-12-05, 51 before the uneventful steps were moved in place, 48-53 ns on 2026-12-01 (against 78 for
 one point's march then); the stages alone take 28 ns of it (``benchmarks/lanes.py``). Its
 first compile takes about 13 s (the callees it shares with the one-point march included; 10
 s before those copies) against 7 s for the one-point march, which array calls no longer
@@ -59,7 +60,7 @@ from sweep.kernels.creep import Creep, creep_constants
 from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
                                  carry_last_stage, compensated_sum, out_of_budget, scratch,
                                  start, uneventful)
-from sweep.kernels.stepper import N_STAGES, local_error, rk_step_lanes
+from sweep.kernels.stepper import N_STAGES, SCRATCH, rk_step_lanes, vector_groups
 from sweep.kernels.stepsize import (StepPolicy, first_guess, policy, uncapped,
                                     uncapped_guess)
 
@@ -93,7 +94,7 @@ class Lanes(NamedTuple):
     h: np.ndarray       # float64: the step about to be taken
     y: np.ndarray       # float64 (LANES, 5): its (u_new, w_new, dr), local errors of w, q
     K: np.ndarray       # float64 (LANES, N_STAGES, 3): each lane's stages
-    S: np.ndarray       # float64 (2 N_STAGES LANES): rk_step_lanes's scratch
+    S: np.ndarray       # float64 (SCRATCH LANES): rk_step_lanes's scratch
 
 
 @intrinsic
@@ -135,7 +136,7 @@ def _lanes():
                  np.empty((LANES, LAW_COLUMNS[1]), np.int64),
                  np.empty((LANES, 7)), np.empty((LANES, 14)), np.empty((LANES, 6), np.int64),
                  np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((LANES, 5)),
-                 np.empty((LANES, N_STAGES, 3)), np.empty(2 * N_STAGES * LANES))
+                 np.empty((LANES, N_STAGES, 3)), np.empty(SCRATCH * LANES))
 
 
 @jit(inline="always")
@@ -249,16 +250,6 @@ def _general_first(alpha, beta, todo):
 
 
 @jit(inline="always")
-def _local_errors(ln):
-    """Every live lane's local error estimates of w and q (:func:`local_error`) in columns
-    3 and 4 of ``ln.y``: in one loop the lanes' chains of multiply-adds overlap."""
-    for lane in range(LANES):
-        if ln.live[lane]:
-            # ln.K[lane] is a view of a borrowed array: it costs no count.
-            _, ln.y[lane, 3], ln.y[lane, 4] = local_error(ln.K[lane], ln.h[lane])
-
-
-@jit(inline="always")
 def _any(live):
     for x in live:
         if x:
@@ -337,6 +328,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     budget, ends = b(budget), b(ends)     # the others are read once per point
     order = _general_first(alpha, beta, todo)
     nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps, order)
+    vec = vector_groups(ln.LI)      # a lane's law changes only where it takes a point
     while _any(ln.live):
         idle = False
         for lane in range(LANES):      # the step's size, after march()'s budget test
@@ -348,8 +340,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
                     _put_end(ends, ln.point[lane], out_of_budget(st, c))
                     ln.live[lane], idle = False, True
         if not idle:
-            rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y, ln.S)
-            _local_errors(ln)
+            rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y, ln.S, vec)
             for lane in range(LANES):  # the rest of march()'s step
                 if ln.live[lane] and not _moved_on(ln, lane, rest_tol):
                     # ln.K[lane] is a view of a borrowed array: it costs no count.
@@ -365,5 +356,6 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
                         ln.live[lane], idle = False, True
         if idle:
             nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, order)
+            vec = vector_groups(ln.LI)
     # The owners live until the borrowed views are done with.
     own.live[0] = K2_own[0, 0] == Q_own[0, 0]

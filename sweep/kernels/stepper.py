@@ -19,9 +19,10 @@ from sweep.kernels._jit import jit
 from sweep.kernels.contact import (general_arguments, general_at, rhs, rhs_at, rhs_called,
                                    rhs_general, rhs_vector, vector_law, vector_law_at)
 from sweep.kernels.tableau import DORMAND_PRINCE_54
-from sweep.kernels.vmath import VECTOR, exp4, log4, vadd, vload, vmul, vscatter, vstore
+from sweep.kernels.vmath import (VECTOR, exp4, log4, vadd, vdot, vload, vmul, vpack, vscatter,
+                                 vstore)
 
-__all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "rk_stage", "stage_point", "rk_combine",
+__all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "SCRATCH", "vector_groups", "rk_stage", "stage_point", "rk_combine",
            "local_error", "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
 
 _T = DORMAND_PRINCE_54
@@ -137,27 +138,35 @@ rk_step = jit()(_step_with(rhs_called))
 rk_step_inline = jit(inline="always")(_step_with(rhs))
 
 
+#: Scratch of :func:`rk_step_lanes` per lane: its stages' three components, then the
+#: step's start (u, w), size and law (:func:`~sweep.kernels.contact.vector_law`'s four).
+SCRATCH = 3 * N_STAGES + 7
+_U0, _W0, _H0, _LAW = range(3 * N_STAGES, 3 * N_STAGES + 4)
+
+
 @jit(inline="always")
-def rk_step_lanes(u, w, h, K, LF, LI, live, y, S):
+def rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec):
     """:func:`rk_step` for several points at once: lane ``l`` (where ``live[l]``) steps
     ``(u[l], w[l])`` by ``h[l]`` with the law in row ``l`` of ``LF, LI``
     (:func:`sweep.kernels.contact.rhs_at`), its stages in ``K[l]`` (``K[l, 0]`` = f at the
-    start on entry), its ``(u_new, w_new, dr)`` in ``y[l]``; the number of lanes a multiple
-    of four (:func:`_general_stage`). ``S``: scratch, ``2 N_STAGES`` times the lanes.
+    start on entry), its ``(u_new, w_new, dr)`` in ``y[l, :3]`` and the step's local error
+    estimates of w and q (:func:`local_error`) in ``y[l, 3:5]``; the number of lanes a
+    multiple of four (:func:`_general_stage`). ``S``: scratch, :data:`SCRATCH` times the
+    lanes; ``vec``: the lanes' :func:`vector_groups`.
 
     Each stage is formed for every lane before the next: the lanes' chains of dependent
     operations (each stage waits on the power of u of the one before) overlap, where one
     point's chain leaves the core waiting on latency (``benchmarks/lanes.py``). Groups of
     lanes whose laws :func:`~sweep.kernels.contact.rhs_vector` takes go as vectors
-    (:func:`_vector_stage`). Per lane the arithmetic is :func:`rk_step`'s, operation for
-    operation.
+    (:func:`_vector_stage`, :func:`_vector_combine`). Per lane the arithmetic is
+    :func:`rk_step`'s and :func:`local_error`'s, operation for operation.
     """
-    vec = _vector_groups(K, LI, S)
+    _vectors_in(vec, u, w, h, K, LF, LI, S)
     for i in range(1, N_STAGES):
         pending = 0
         for first in range(0, live.size, VECTOR):
             if vec >> first & 1:
-                _vector_stage(i, first, u, w, h, K, LF, LI, S)
+                _vector_stage(i, first, K, S)
                 continue
             for lane in range(first, first + VECTOR):
                 if live[lane]:
@@ -171,59 +180,103 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y, S):
                                                                              lane)
         if pending:
             _general_stage(i, K, LF, pending)
-    for lane in range(live.size):
-        if live[lane]:
-            y[lane, 0], y[lane, 1], y[lane, 2] = _combine_lane(u[lane], w[lane], h[lane], K,
-                                                               lane)
+    for first in range(0, live.size, VECTOR):
+        if vec >> first & 1:
+            _vector_combine(first, y, S)
+            continue
+        for lane in range(first, first + VECTOR):
+            if live[lane]:
+                y[lane, 0], y[lane, 1], y[lane, 2] = _combine_lane(u[lane], w[lane], h[lane],
+                                                                   K, lane)
+                # K[lane] is a view of a borrowed array (sweep.kernels.lanes): no count.
+                _, y[lane, 3], y[lane, 4] = local_error(K[lane], h[lane])
 
 
-@jit(inline="always")
-def _vector_groups(K, LI, S):
-    """Bit ``first`` set for each group of lanes ``first ..`` whose laws all take
-    :func:`~sweep.kernels.contact.rhs_vector` (idle lanes too: their results are not
-    read), their first stage copied into ``S`` (:func:`_vector_stage`)."""
+# Called, not inlined: once per refill of the lanes, and each inlined copy cost compile time.
+@jit()
+def vector_groups(LI):
+    """Bit ``first`` set for each group of :data:`~sweep.kernels.vmath.VECTOR` lanes
+    ``first ..`` whose laws (rows of ``LI``) all take
+    :func:`~sweep.kernels.contact.rhs_vector`: :func:`rk_step_lanes` forms their stages as
+    vectors. Idle lanes count too: their results are not read."""
     vec = 0
-    n = K.shape[0]
-    for first in range(0, n, VECTOR):
+    for first in range(0, LI.shape[0], VECTOR):
         ok = True
         for lane in range(first, first + VECTOR):
             ok = ok and vector_law_at(LI, lane)
         if ok:
             vec |= 1 << first
-            # Element by element into a vector store: a vector load of elements stored
-            # one by one waits for the stores to complete.
-            vstore(S, first, _elements(K[:, 0, 0], first))
-            vstore(S, n + first, _elements(K[:, 0, 1], first))
     return vec
 
 
 @jit(inline="always")
-def _elements(a, first):
-    return (a[first], a[first + 1], a[first + 2], a[first + 3])
+def _vectors_in(vec, u, w, h, K, LF, LI, S):
+    """The first stage, step and law of the groups of ``vec`` stored in ``S`` as vectors.
+
+    ``S`` holds rows of the lanes, row r of the lanes ``first ..`` at ``r n + first`` (n
+    lanes): stage j's u, w and q components in rows 3j to 3j + 2, then the rows from _U0
+    on. (Index arithmetic written out, not in helpers: each inlined call costs compile
+    time.)"""
+    n = K.shape[0]
+    for first in range(0, n, VECTOR):
+        if vec >> first & 1:
+            # Element by element into a vector store: a vector load of elements stored
+            # one by one (as the lanes' steps move them) waits for the stores to complete.
+            for c in range(3):
+                vstore(S, c * n + first, (K[first, 0, c], K[first + 1, 0, c],
+                                          K[first + 2, 0, c], K[first + 3, 0, c]))
+            vstore(S, _U0 * n + first, (u[first], u[first + 1], u[first + 2], u[first + 3]))
+            vstore(S, _W0 * n + first, (w[first], w[first + 1], w[first + 2], w[first + 3]))
+            vstore(S, _H0 * n + first, (h[first], h[first + 1], h[first + 2], h[first + 3]))
+            law = vector_law(LF, LI, first)
+            for m in range(4):
+                vstore(S, (_LAW + m) * n + first, law[m])
 
 
 @jit(inline="always")
-def _vector_stage(i, first, u, w, h, K, LF, LI, S):
+def _vector_stage(i, first, K, S):
     """Stage ``i`` of the lanes ``first ..`` as vectors: the stage point as
-    :func:`stage_point`'s from the u and w components of the stages before in ``S``
-    (stage j's at ``2 j n`` and ``(2 j + 1) n``, n lanes), the forces of
-    :func:`~sweep.kernels.contact.rhs_vector`."""
+    :func:`stage_point`'s from the stages before in ``S`` (:func:`_vectors_in`), the forces
+    of :func:`~sweep.kernels.contact.rhs_vector`, stored in ``S`` and ``K``."""
     n = K.shape[0]
-    du = dw = (0.0, 0.0, 0.0, 0.0)
+    du = dw = vpack(0.0)
     for j in range(i):
         a = _A[i, j]
-        du = vadd(du, vmul(a, vload(S, 2 * j * n + first)))
-        dw = vadd(dw, vmul(a, vload(S, (2 * j + 1) * n + first)))
-    h4 = _elements(h, first)
-    fu, fw, fq = rhs_vector(vadd(_elements(u, first), vmul(h4, du)),
-                            vadd(_elements(w, first), vmul(h4, dw)),
-                            vector_law(LF, LI, first))
-    vstore(S, 2 * i * n + first, fu)
-    vstore(S, (2 * i + 1) * n + first, fw)
+        du = vadd(du, vmul(a, vload(S, 3 * j * n + first)))
+        dw = vadd(dw, vmul(a, vload(S, (3 * j + 1) * n + first)))
+    h = vload(S, _H0 * n + first)
+    law = (vload(S, _LAW * n + first), vload(S, (_LAW + 1) * n + first),
+           vload(S, (_LAW + 2) * n + first), vload(S, (_LAW + 3) * n + first))
+    f = rhs_vector(vadd(vload(S, _U0 * n + first), vmul(h, du)),
+                   vadd(vload(S, _W0 * n + first), vmul(h, dw)), law)
     stride = K.shape[1] * K.shape[2]
-    vscatter(K, first * stride + 3 * i, stride, fu)
-    vscatter(K, first * stride + 3 * i + 1, stride, fw)
-    vscatter(K, first * stride + 3 * i + 2, stride, fq)
+    for c in range(3):
+        vstore(S, (3 * i + c) * n + first, f[c])
+        vscatter(K, first * stride + 3 * i + c, stride, f[c])
+
+
+# The weights as tuples, for vdot.
+_B_TERMS = tuple(float(b) for b in _B)
+_E_TERMS = tuple(float(d) for d in _E)
+
+
+@jit(inline="always")
+def _vector_combine(first, y, S):
+    """:func:`rk_combine` and :func:`local_error` of the lanes ``first ..`` as vectors,
+    from their stages in ``S`` (:func:`_vectors_in`), into their rows of ``y``."""
+    n = y.shape[0]
+    du = vdot(S, first, 3 * n, _B_TERMS)
+    dw = vdot(S, n + first, 3 * n, _B_TERMS)
+    dq = vdot(S, 2 * n + first, 3 * n, _B_TERMS)
+    ew = vdot(S, n + first, 3 * n, _E_TERMS)
+    eq = vdot(S, 2 * n + first, 3 * n, _E_TERMS)
+    h = vload(S, _H0 * n + first)
+    cols = y.shape[1]
+    vscatter(y, first * cols, cols, vadd(vload(S, _U0 * n + first), vmul(h, du)))
+    vscatter(y, first * cols + 1, cols, vadd(vload(S, _W0 * n + first), vmul(h, dw)))
+    vscatter(y, first * cols + 2, cols, vmul(h, dq))
+    vscatter(y, first * cols + 3, cols, vmul(h, ew))
+    vscatter(y, first * cols + 4, cols, vmul(h, eq))
 
 
 # Lanes whose powers go to the vector functions together: vmath's 4-tuples, built and

@@ -50,13 +50,15 @@ import numba
 from llvmlite import ir
 from numba.core import cgutils, types
 from numba.core.cpu import CPUContext
-from numba.extending import intrinsic
+from numba.core.datamodel import models
+from numba.extending import intrinsic, register_model
 
 from sweep.kernels._jit import jit
 
 __all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log4", "exp4", "expm1_4", "sqrt_div4", "HAS",
-           "VECTOR", "vadd", "vsub", "vmul", "vsqrt", "vwhere_positive", "vwhere_nonnegative",
-           "vwhere_equal", "vload", "vstore"]
+           "VECTOR", "Vector", "vector", "vpack", "vtuple", "vadd", "vsub", "vmul", "vsqrt",
+           "vwhere_positive", "vwhere_nonnegative", "vwhere_equal", "vsqrt_where_equal",
+           "vload", "vstore", "vscatter", "vdot"]
 
 # libmvec's variants, in order of preference: (CPU feature, name letter of the x86_64
 # vector ABI, doubles per vector). AVX2 before AVX-512: on the AMD EPYC (Zen 4) where it was
@@ -231,38 +233,80 @@ def _pack(builder, vt, values, pad=None):
     return v
 
 
-#: Elements of the tuples of the elementwise operations below (:func:`vadd` .. :func:`vscatter`):
-#: IEEE operations on tuples of float64 as vector instructions, each element with the bits
-#: of the scalar operation (kernels' contraction included), for the stages of groups of the
-#: array kernels' lanes (:func:`sweep.kernels.stepper.rk_step_lanes`). An operand may be a
-#: float64, taken for every element. Four: groups of eight lanes, their stages unrolled,
-#: cost 2-3 s more of first compile for no speed on KK (docs/speed/history.md, 2026-12-05).
+#: Elements of the vectors of the elementwise operations below (:func:`vadd` ..
+#: :func:`vdot`): IEEE operations as vector instructions, each element with the bits of the
+#: scalar operation (kernels' contraction included), for the stages of groups of the array
+#: kernels' lanes (:func:`sweep.kernels.stepper.rk_step_lanes`). Four: groups of eight
+#: lanes, their stages unrolled, cost 2-3 s more of first compile for no speed on KK
+#: (docs/speed/history.md, 2026-12-05).
 VECTOR = 4
 _VT = ir.VectorType(ir.DoubleType(), VECTOR)
 _CONTRACT = ("contract",)
 _I32 = ir.IntType(32)
 
 
-def _is_vector(t, dtype=types.float64):
+class Vector(types.Type):
+    """numba type of :data:`VECTOR` float64 held as one LLVM vector: the operations below
+    take and give it without the tuples' packing at every call (their IR took a second of
+    first compile to clean up, and sums carried through loops as tuples went element by
+    element)."""
+
+    def __init__(self):
+        super().__init__(name=f"vector{VECTOR}_float64")
+
+
+#: The one :class:`Vector` type.
+vector = Vector()
+
+
+@register_model(Vector)
+class _VectorModel(models.PrimitiveModel):
+    def __init__(self, dmm, fe_type):
+        super().__init__(dmm, fe_type, _VT)
+
+
+def _is_tuple(t, dtype=types.float64):
     return isinstance(t, types.UniTuple) and t.count == VECTOR and t.dtype == dtype
 
 
 def _operand(t):
-    if not (_is_vector(t) or t == types.float64):
-        raise numba.core.errors.TypingError(f"a {VECTOR}-tuple of float64 or a float64 is needed, "
-                                            f"got {t}")
+    """Operands: a :class:`Vector`, a :data:`VECTOR`-tuple of float64, or a float64 (every
+    element)."""
+    if not (t == vector or _is_tuple(t) or t == types.float64):
+        raise numba.core.errors.TypingError(f"a vector, a {VECTOR}-tuple of float64 or a "
+                                            f"float64 is needed, got {t}")
 
 
 def _vector(builder, t, value):
-    """The vector of a :data:`VECTOR`-tuple, or of a float64 in every element."""
+    """The LLVM vector of an operand (:func:`_operand`)."""
+    if t == vector:
+        return value
     if isinstance(t, types.UniTuple):
         return _pack(builder, _VT, cgutils.unpack_tuple(builder, value))
     return _pack(builder, _VT, [value] * VECTOR)
 
 
-def _tuple(context, builder, vector):
-    return context.make_tuple(builder, types.UniTuple(types.float64, VECTOR), [
-        builder.extract_element(vector, ir.Constant(_I32, k)) for k in range(VECTOR)])
+@intrinsic
+def vpack(typingctx, x):
+    """The :class:`Vector` of an operand (:func:`_operand`)."""
+    _operand(x)
+
+    def codegen(context, builder, signature, args):
+        return _vector(builder, x, args[0])
+    return vector(x), codegen
+
+
+@intrinsic
+def vtuple(typingctx, x):
+    """The :data:`VECTOR`-tuple of float64 of a :class:`Vector`."""
+    if x != vector:
+        raise numba.core.errors.TypingError(f"a vector is needed, got {x}")
+    ret = types.UniTuple(types.float64, VECTOR)
+
+    def codegen(context, builder, signature, args):
+        return context.make_tuple(builder, ret, [
+            builder.extract_element(args[0], ir.Constant(_I32, k)) for k in range(VECTOR)])
+    return ret(x), codegen
 
 
 def _binary(operation):
@@ -270,50 +314,47 @@ def _binary(operation):
     def of(typingctx, x, y):
         _operand(x)
         _operand(y)
-        ret = types.UniTuple(types.float64, VECTOR)
 
         def codegen(context, builder, signature, args):
             a, b = (_vector(builder, t, v) for t, v in zip(signature.args, args))
             # With the kernels' one fastmath flag (sweep.kernels._jit.FLAGS): a product
             # and a sum fuse here as they do in the scalar code.
-            return _tuple(context, builder, getattr(builder, operation)(a, b,
-                                                                         flags=_CONTRACT))
-        return ret(x, y), codegen
+            return getattr(builder, operation)(a, b, flags=_CONTRACT)
+        return vector(x, y), codegen
     return of
 
 
-#: ``x + y``, ``x - y``, ``x * y`` element by element (a float64 operand: every element).
+#: ``x + y``, ``x - y``, ``x * y`` element by element.
 vadd, vsub, vmul = _binary("fadd"), _binary("fsub"), _binary("fmul")
+
+
+def _sqrt(builder, v):
+    sqrt = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_VT, [_VT]),
+                                          f"llvm.sqrt.v{VECTOR}f64")
+    return builder.call(sqrt, [v])
 
 
 @intrinsic
 def vsqrt(typingctx, x):
-    """``math.sqrt`` of each element of a :data:`VECTOR`-tuple of float64 (one vector root)."""
-    if not _is_vector(x):
-        raise numba.core.errors.TypingError(f"a {VECTOR}-tuple of float64 is needed, got {x}")
+    """``math.sqrt`` of each element (one vector root)."""
+    _operand(x)
 
     def codegen(context, builder, signature, args):
-        sqrt = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_VT, [_VT]),
-                                              f"llvm.sqrt.v{VECTOR}f64")
-        return _tuple(context, builder, builder.call(sqrt, [_vector(builder, x, args[0])]))
-    return x(x), codegen
+        return _sqrt(builder, _vector(builder, x, args[0]))
+    return vector(x), codegen
 
 
 def _where(predicate):
     @intrinsic
     def where(typingctx, x, a, b):
-        if not _is_vector(x):
-            raise numba.core.errors.TypingError(f"a {VECTOR}-tuple of float64 is needed, got {x}")
-        _operand(a)
-        _operand(b)
-        ret = types.UniTuple(types.float64, VECTOR)
+        for t in (x, a, b):
+            _operand(t)
 
         def codegen(context, builder, signature, args):
             xv, av, bv = (_vector(builder, t, v) for t, v in zip(signature.args, args))
             zero = ir.Constant(_VT, [0.0] * VECTOR)
-            return _tuple(context, builder,
-                          builder.select(builder.fcmp_ordered(predicate, xv, zero), av, bv))
-        return ret(x, a, b), codegen
+            return builder.select(builder.fcmp_ordered(predicate, xv, zero), av, bv)
+        return vector(x, a, b), codegen
     return where
 
 
@@ -321,79 +362,150 @@ def _where(predicate):
 vwhere_positive, vwhere_nonnegative = _where(">"), _where(">=")
 
 
+def _codes(k, value):
+    """Type check of codes (int64 tuple, or float64 operand holding integers) and the code
+    they are compared with."""
+    if not (_is_tuple(k, types.int64) or k == vector or _is_tuple(k)) or not isinstance(
+            value, types.Integer):
+        raise numba.core.errors.TypingError(f"codes ({VECTOR}-tuple of int64, or a vector) "
+                                            f"and an integer are needed, got {k} and {value}")
+
+
+def _equal(context, builder, k, kv, value, val):
+    """The <VECTOR x i1> of ``k == value`` element by element."""
+    if _is_tuple(k, types.int64):
+        vi = ir.VectorType(ir.IntType(64), VECTOR)
+        code = context.cast(builder, val, value, types.int64)
+        return builder.icmp_signed("==", _pack(builder, vi, cgutils.unpack_tuple(builder, kv)),
+                                   _pack(builder, vi, [code] * VECTOR))
+    code = context.cast(builder, val, value, types.float64)
+    return builder.fcmp_ordered("==", _vector(builder, k, kv), _pack(builder, _VT,
+                                                                      [code] * VECTOR))
+
+
 @intrinsic
 def vwhere_equal(typingctx, k, value, a, b):
-    """``a if k == value else b`` element by element, ``k`` a :data:`VECTOR`-tuple of int64."""
-    if not (_is_vector(k, types.int64) and isinstance(value, types.Integer)):
-        raise numba.core.errors.TypingError(f"a {VECTOR}-tuple of int64 and an integer are needed, "
-                                            f"got {k} and {value}")
+    """``a if k == value else b`` element by element, ``k`` codes (a tuple of int64, or
+    float64 holding integers)."""
+    _codes(k, value)
     _operand(a)
     _operand(b)
-    ret = types.UniTuple(types.float64, VECTOR)
 
     def codegen(context, builder, signature, args):
-        vi = ir.VectorType(ir.IntType(64), VECTOR)
-        kv = _pack(builder, vi, cgutils.unpack_tuple(builder, args[0]))
-        val = context.cast(builder, args[1], value, types.int64)
-        test = builder.icmp_signed("==", kv, _pack(builder, vi, [val] * VECTOR))
+        test = _equal(context, builder, k, args[0], value, args[1])
         av, bv = (_vector(builder, t, v) for t, v in zip(signature.args[2:], args[2:]))
-        return _tuple(context, builder, builder.select(test, av, bv))
-    return ret(k, value, a, b), codegen
+        return builder.select(test, av, bv)
+    return vector(k, value, a, b), codegen
+
+
+@intrinsic
+def vsqrt_where_equal(typingctx, k, value, x, b):
+    """``math.sqrt(x) if k == value else b`` element by element, ``k`` codes as for
+    :func:`vwhere_equal`. Where no element has ``k == value`` the result is b without the
+    root: a select after the root would wait on it (and on x) whatever it selects, a
+    root's latency on every lane's chain."""
+    _codes(k, value)
+    _operand(x)
+    _operand(b)
+
+    def codegen(context, builder, signature, args):
+        test = _equal(context, builder, k, args[0], value, args[1])
+        bv = _vector(builder, b, args[3])
+        anyone = builder.icmp_unsigned("!=", builder.bitcast(test, ir.IntType(VECTOR)),
+                                       ir.Constant(ir.IntType(VECTOR), 0))
+        before = builder.basic_block
+        with builder.if_then(anyone):
+            rooted = builder.select(test, _sqrt(builder, _vector(builder, x, args[2])), bv)
+            then = builder.basic_block
+        result = builder.phi(_VT)
+        result.add_incoming(rooted, then)
+        result.add_incoming(bv, before)
+        return result
+    return vector(k, value, x, b), codegen
+
+
+def _flat(arr, *indices):
+    return (isinstance(arr, types.Array) and arr.layout == "C" and arr.dtype == types.float64
+            and all(isinstance(t, types.Integer) for t in indices))
+
+
+def _at(context, builder, arr, value, index, index_type):
+    """Pointer to element ``index`` of a C-contiguous array's data, seen as a vector."""
+    data = context.make_array(arr)(context, builder, value).data
+    ptr = builder.gep(data, [context.cast(builder, index, index_type, types.intp)])
+    return builder.bitcast(ptr, _VT.as_pointer())
 
 
 @intrinsic
 def vload(typingctx, arr, start):
-    """``(a[start], .., a[start + VECTOR - 1])`` of a C-contiguous one-dimensional float64 array, as
-    one vector load (no bounds check)."""
-    if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout == "C"
-            and arr.dtype == types.float64 and isinstance(start, types.Integer)):
-        raise numba.core.errors.TypingError(f"a C-contiguous float64 vector and an index are "
+    """The vector ``a.flat[start:start + VECTOR]`` of a C-contiguous float64 array, as one
+    load (no bounds check)."""
+    if not _flat(arr, start):
+        raise numba.core.errors.TypingError(f"a C-contiguous float64 array and an index are "
                                             f"needed, got {arr} and {start}")
 
     def codegen(context, builder, signature, args):
-        data = context.make_array(arr)(context, builder, args[0]).data
-        ptr = builder.gep(data, [context.cast(builder, args[1], start, types.intp)])
-        v = builder.load(builder.bitcast(ptr, _VT.as_pointer()), align=8)
-        return _tuple(context, builder, v)
-    return types.UniTuple(types.float64, VECTOR)(arr, start), codegen
+        return builder.load(_at(context, builder, arr, args[0], args[1], start), align=8)
+    return vector(arr, start), codegen
 
 
 @intrinsic
-def vstore(typingctx, arr, start, t):
-    """``a[start:start + VECTOR] = t`` for a C-contiguous one-dimensional float64 array and a
-    :data:`VECTOR`-tuple of float64, as one vector store (no bounds check)."""
-    if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout == "C"
-            and arr.dtype == types.float64 and isinstance(start, types.Integer)
-            and _is_vector(t)):
-        raise numba.core.errors.TypingError(f"a C-contiguous float64 vector, an index and a "
-                                            f"{VECTOR}-tuple are needed, got {arr}, {start}, {t}")
+def vstore(typingctx, arr, start, x):
+    """``a.flat[start:start + VECTOR] = x`` for a C-contiguous float64 array, as one store
+    (no bounds check)."""
+    if not _flat(arr, start):
+        raise numba.core.errors.TypingError(f"a C-contiguous float64 array and an index are "
+                                            f"needed, got {arr} and {start}")
+    _operand(x)
 
     def codegen(context, builder, signature, args):
-        data = context.make_array(arr)(context, builder, args[0]).data
-        ptr = builder.gep(data, [context.cast(builder, args[1], start, types.intp)])
-        builder.store(_vector(builder, t, args[2]), builder.bitcast(ptr, _VT.as_pointer()),
-                      align=8)
+        builder.store(_vector(builder, x, args[2]),
+                      _at(context, builder, arr, args[0], args[1], start), align=8)
         return context.get_dummy_value()
-    return types.none(arr, start, t), codegen
+    return types.none(arr, start, x), codegen
 
 
 @intrinsic
-def vscatter(typingctx, arr, start, stride, t):
-    """``a.flat[start + k stride] = t[k]`` for a C-contiguous float64 array and a
-    :data:`VECTOR`-tuple of float64, element by element (no bounds check)."""
-    if not (isinstance(arr, types.Array) and arr.layout == "C" and arr.dtype == types.float64
-            and isinstance(start, types.Integer) and isinstance(stride, types.Integer)
-            and _is_vector(t)):
-        raise numba.core.errors.TypingError(f"a C-contiguous float64 array, two indices and a "
-                                            f"{VECTOR}-tuple are needed, got {arr}, {start}, "
-                                            f"{stride}, {t}")
+def vscatter(typingctx, arr, start, stride, x):
+    """``a.flat[start + k stride] = x[k]`` for a C-contiguous float64 array, element by
+    element (no bounds check)."""
+    if not _flat(arr, start, stride):
+        raise numba.core.errors.TypingError(f"a C-contiguous float64 array and two indices "
+                                            f"are needed, got {arr}, {start}, {stride}")
+    _operand(x)
 
     def codegen(context, builder, signature, args):
         data = context.make_array(arr)(context, builder, args[0]).data
         first = context.cast(builder, args[1], start, types.intp)
         step = context.cast(builder, args[2], stride, types.intp)
-        for k, value in enumerate(cgutils.unpack_tuple(builder, args[3])):
+        v = _vector(builder, x, args[3])
+        for k in range(VECTOR):
             at = builder.add(first, builder.mul(step, ir.Constant(step.type, k)))
-            builder.store(value, builder.gep(data, [at]))
+            builder.store(builder.extract_element(v, ir.Constant(_I32, k)),
+                          builder.gep(data, [at]))
         return context.get_dummy_value()
-    return types.none(arr, start, stride, t), codegen
+    return types.none(arr, start, stride, x), codegen
+
+
+@intrinsic
+def vdot(typingctx, arr, start, stride, coefficients):
+    """``sum_j c_j a.flat[start + j stride : .. + VECTOR]`` over the float64
+    ``coefficients`` c_j, summed from 0 in their order as ``s += c_j x_j`` is (the
+    kernels' contraction included), for a C-contiguous float64 array."""
+    if not (_flat(arr, start, stride) and isinstance(coefficients, types.UniTuple)
+            and coefficients.dtype == types.float64):
+        raise numba.core.errors.TypingError(f"a C-contiguous float64 array, two indices and "
+                                            f"a tuple of float64 are needed, got {arr}, "
+                                            f"{start}, {stride}, {coefficients}")
+
+    def codegen(context, builder, signature, args):
+        first = context.cast(builder, args[1], start, types.intp)
+        step = context.cast(builder, args[2], stride, types.intp)
+        total = ir.Constant(_VT, [0.0] * VECTOR)
+        for j, c in enumerate(cgutils.unpack_tuple(builder, args[3])):
+            at = builder.add(first, builder.mul(step, ir.Constant(step.type, j)))
+            x = builder.load(_at(context, builder, arr, args[0], at, types.intp), align=8)
+            term = builder.fmul(_pack(builder, _VT, [c] * VECTOR), x, flags=_CONTRACT)
+            total = builder.fadd(total, term, flags=_CONTRACT)
+        return total
+    return vector(arr, start, stride, coefficients), codegen
