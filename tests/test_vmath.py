@@ -217,9 +217,10 @@ def test_tuple_operations_are_the_scalar_ones_element_by_element():
 def _scattered(t, stride):
     a = np.zeros(3 + stride * _N)
     vmath.vscatter(a, 3, stride, t)
-    return a
+    return a, vmath.vtuple(vmath.vgather(a, 3, stride))
 
 
-def test_scatter_puts_each_element_at_its_stride():
-    a = _scattered((1.0, 2.0, 3.0, 4.0), 5)
+def test_scatter_and_gather_put_and_take_each_element_at_its_stride():
+    a, back = _scattered((1.0, 2.0, 3.0, 4.0), 5)
     assert list(a[3::5]) == [1.0, 2.0, 3.0, 4.0] and a.sum() == 10.0
+    assert back == (1.0, 2.0, 3.0, 4.0)

@@ -19,8 +19,8 @@ from sweep.kernels._jit import jit
 from sweep.kernels.contact import (general_arguments, general_at, rhs, rhs_at, rhs_called,
                                    rhs_general, rhs_vector, vector_law, vector_law_at)
 from sweep.kernels.tableau import DORMAND_PRINCE_54
-from sweep.kernels.vmath import (VECTOR, exp4, log4, vadd, vdot, vload, vmul, vpack, vscatter,
-                                 vstore)
+from sweep.kernels.vmath import (VECTOR, exp4, log4, vadd, vdot, vgather, vload, vmul, vpack,
+                                 vscatter, vstore)
 
 __all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "SCRATCH", "vector_groups", "rk_stage", "stage_point", "rk_combine",
            "local_error", "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
@@ -220,17 +220,19 @@ def _vectors_in(vec, u, w, h, K, LF, LI, S):
     n = K.shape[0]
     for first in range(0, n, VECTOR):
         if vec >> first & 1:
-            # Element by element into a vector store: a vector load of elements stored
-            # one by one (as the lanes' steps move them) waits for the stores to complete.
-            for c in range(3):
-                vstore(S, c * n + first, (K[first, 0, c], K[first + 1, 0, c],
-                                          K[first + 2, 0, c], K[first + 3, 0, c]))
-            vstore(S, _U0 * n + first, (u[first], u[first + 1], u[first + 2], u[first + 3]))
-            vstore(S, _W0 * n + first, (w[first], w[first + 1], w[first + 2], w[first + 3]))
-            vstore(S, _H0 * n + first, (h[first], h[first + 1], h[first + 2], h[first + 3]))
-            law = vector_law(LF, LI, first)
-            for m in range(4):
-                vstore(S, (_LAW + m) * n + first, law[m])
+            # Gathered element by element (vgather): the lanes' steps store them so.
+            stride = K.shape[1] * K.shape[2]
+            vstore(S, first, vgather(K, first * stride, stride))
+            vstore(S, n + first, vgather(K, first * stride + 1, stride))
+            vstore(S, 2 * n + first, vgather(K, first * stride + 2, stride))
+            vstore(S, _U0 * n + first, vgather(u, first, 1))
+            vstore(S, _W0 * n + first, vgather(w, first, 1))
+            vstore(S, _H0 * n + first, vgather(h, first, 1))
+            kd, beta, gamma, gtilde = vector_law(LF, LI, first)
+            vstore(S, _LAW * n + first, kd)
+            vstore(S, (_LAW + 1) * n + first, beta)
+            vstore(S, (_LAW + 2) * n + first, gamma)
+            vstore(S, (_LAW + 3) * n + first, gtilde)
 
 
 @jit(inline="always")
@@ -249,10 +251,14 @@ def _vector_stage(i, first, K, S):
            vload(S, (_LAW + 2) * n + first), vload(S, (_LAW + 3) * n + first))
     f = rhs_vector(vadd(vload(S, _U0 * n + first), vmul(h, du)),
                    vadd(vload(S, _W0 * n + first), vmul(h, dw)), law)
+    fu, fw, fq = f
     stride = K.shape[1] * K.shape[2]
-    for c in range(3):
-        vstore(S, (3 * i + c) * n + first, f[c])
-        vscatter(K, first * stride + 3 * i + c, stride, f[c])
+    vstore(S, 3 * i * n + first, fu)
+    vstore(S, (3 * i + 1) * n + first, fw)
+    vstore(S, (3 * i + 2) * n + first, fq)
+    vscatter(K, first * stride + 3 * i, stride, fu)
+    vscatter(K, first * stride + 3 * i + 1, stride, fw)
+    vscatter(K, first * stride + 3 * i + 2, stride, fq)
 
 
 # The weights as tuples, for vdot.

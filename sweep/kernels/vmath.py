@@ -58,7 +58,7 @@ from sweep.kernels._jit import jit
 __all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log4", "exp4", "expm1_4", "sqrt_div4", "HAS",
            "VECTOR", "Vector", "vector", "vpack", "vtuple", "vadd", "vsub", "vmul", "vsqrt",
            "vwhere_positive", "vwhere_nonnegative", "vwhere_equal", "vsqrt_where_equal",
-           "vload", "vstore", "vscatter", "vdot"]
+           "vload", "vstore", "vscatter", "vgather", "vdot"]
 
 # libmvec's variants, in order of preference: (CPU feature, name letter of the x86_64
 # vector ABI, doubles per vector). AVX2 before AVX-512: on the AMD EPYC (Zen 4) where it was
@@ -485,6 +485,24 @@ def vscatter(typingctx, arr, start, stride, x):
                           builder.gep(data, [at]))
         return context.get_dummy_value()
     return types.none(arr, start, stride, x), codegen
+
+
+@intrinsic
+def vgather(typingctx, arr, start, stride):
+    """The vector ``(a.flat[start + k stride])``, k < VECTOR, of a C-contiguous float64
+    array, element by element (no bounds check): elements stored one by one just before
+    (a vector load of them would wait for the stores to complete)."""
+    if not _flat(arr, start, stride):
+        raise numba.core.errors.TypingError(f"a C-contiguous float64 array and two indices "
+                                            f"are needed, got {arr}, {start}, {stride}")
+
+    def codegen(context, builder, signature, args):
+        data = context.make_array(arr)(context, builder, args[0]).data
+        first = context.cast(builder, args[1], start, types.intp)
+        step = context.cast(builder, args[2], stride, types.intp)
+        return _pack(builder, _VT, [builder.load(builder.gep(data, [builder.add(
+            first, builder.mul(step, ir.Constant(step.type, k)))])) for k in range(VECTOR)])
+    return vector(arr, start, stride), codegen
 
 
 @intrinsic
