@@ -8,8 +8,9 @@ latency most of the time. This times the same stages (the package's ``rk_stage``
 ``rk_combine``, KK law) marched on one point, then on two independent points whose stages
 alternate, then the array kernels' own stages of ``LANES`` points at once
 (``sweep.kernels.stepper.rk_step_lanes``), and prints nanoseconds per step and point, one
-core. It measures the stages alone: a march adds per step its events, error sums and
-stopping rules, for each point (``benchmarks/step_cost.py`` times the whole march).
+core (the lanes' step also forms its local error estimates; where the lanes' laws allow,
+as vectors of four lanes). It measures the stages alone: a march adds per step its
+events, error sums and stopping rules, for each point (``benchmarks/step_cost.py`` times the whole march).
 Compiled with the kernels' flags (``sweep.kernels._jit.FLAGS``), as the kernels inline them.
 """
 from __future__ import annotations

@@ -31,13 +31,14 @@ latency to hide them, those updates took 70% of the time (``perf``: the ``lock``
 Where every lane of a group of four marches a law of the report with alpha = 3/2 (Hertz,
 TTI, KK, SHC: :func:`sweep.kernels.stepper.vector_groups`, judged when lanes take points),
 the group's stages, their combination and local error estimates go as vectors of its
-lanes (:func:`sweep.kernels.contact.rhs_vector`): 10-17% more points a second on those
+lanes (:func:`sweep.kernels.contact.rhs_vector`): 19-31% more points a second on those
 laws (2026-12-05).
 
-Cost (one core, KK, ``python benchmarks/step_cost.py``): 34-36 ns a step with the vector
-stages, 40 before them on 2026-12-05, 51 before the uneventful steps were moved in place, 48-53 ns on 2026-12-01 (against 78 for
-one point's march then); the stages alone take 28 ns of it (``benchmarks/lanes.py``). Its
-first compile takes about 13 s (the callees it shares with the one-point march included; 10
+Cost (one core, KK, ``python benchmarks/step_cost.py``): 28 ns a step with the vector
+groups, 40 before them on 2026-12-05, 51 before the uneventful steps were moved in place,
+48-53 ns on 2026-12-01 (against 78 for one point's march then); the stages, their
+combination and errors alone take 19-20 ns of it (``benchmarks/lanes.py``). Its first
+compile takes about 13 s (the callees it shares with the one-point march included; 10
 s before those copies) against 7 s for the one-point march, which array calls no longer
 compile.
 

@@ -35,8 +35,8 @@ operations, the bits of the scalar ones). libmvec's expm1
 came with glibc 2.35: :data:`HAS` says which functions it has here, and a
 function it lacks is math's call element by element.
 
-Owns: the vector exp, log, expm1 and the choice of their variant; the elementwise
-operations on tuples. May import: nothing from
+Owns: the vector exp, log, expm1 and the choice of their variant; the vector type and
+its elementwise operations. May import: nothing from
 ``sweep`` but _jit.
 """
 from __future__ import annotations
