@@ -10,8 +10,9 @@ alternate, then the array kernels' own stages of ``LANES`` points at once
 (``sweep.kernels.stepper.rk_step_lanes``), and prints nanoseconds per step and point, one
 core (the lanes' step also forms its local error estimates; where the lanes' laws allow,
 as vectors of four lanes). It measures the stages alone: a march adds per step its
-events, error sums and stopping rules, for each point (``benchmarks/step_cost.py`` times the whole march).
-Compiled with the kernels' flags (``sweep.kernels._jit.FLAGS``), as the kernels inline them.
+events, error sums and stopping rules, for each point (``benchmarks/step_cost.py`` times
+the whole march). Compiled with the kernels' flags (``sweep.kernels._jit.FLAGS``), as the
+kernels inline them.
 """
 from __future__ import annotations
 

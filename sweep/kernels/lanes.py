@@ -43,7 +43,7 @@ s before those copies) against 7 s for the one-point march, which array calls no
 compile.
 
 Owns: the multi-point driver and the layout of its lanes. May import: contact, creep,
-stepper, stepsize, march.
+stepper, stepsize, march, vmath.
 """
 from __future__ import annotations
 
@@ -64,6 +64,7 @@ from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
 from sweep.kernels.stepper import N_STAGES, SCRATCH, rk_step_lanes, vector_groups
 from sweep.kernels.stepsize import (StepPolicy, first_guess, policy, uncapped,
                                     uncapped_guess)
+from sweep.kernels.vmath import VECTOR
 
 __all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
 
@@ -71,6 +72,8 @@ __all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
 #: (KK stages: 74 ns a step for one point, about 25-30 ns a point for eight). A multiple
 #: of four: general lanes take their powers four at a time (rk_step_lanes).
 LANES = 8
+if LANES % VECTOR:
+    raise ImportError(f"LANES ({LANES}) must be a multiple of vmath.VECTOR ({VECTOR})")
 #: Columns of an Ending stored in a row (:func:`ending_at`).
 N_ENDING = 9
 # Columns of a lane's state floats (SF) and ints (SI): the State's fields and its policy's.
