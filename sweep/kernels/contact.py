@@ -19,12 +19,10 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numpy as np
-
 from sweep.kernels._jit import jit
 from sweep.kernels.vmath import (exp1, log1, vmul, vsqrt, vsqrt_where_equal, vsub,
                                  vwhere_equal, vwhere_nonnegative, vwhere_positive)
-from sweep.registry import MODELS, PARAMETERS
+from sweep.registry import PARAMETERS
 
 __all__ = ["Law", "make_law", "put_law", "law_at", "LAW_COLUMNS", "rhs_at", "power_kind", "ppow",
            "ppow_called", "rhs", "rhs_called", "velocity", "accel", "dissipated", "potential",
@@ -100,15 +98,15 @@ def make_law(alpha, beta, gamma, gtilde):
 
 
 #: Columns of the float (``F``) and int (``I``) rows that hold a :class:`Law` (:func:`put_law`).
-LAW_COLUMNS = (4, 5)
+LAW_COLUMNS = (4, 4)
 
 
 @jit(inline="always")
 def put_law(F, I, row, c):
     """Store the :class:`Law` ``c`` in ``row`` of ``F`` (float64, 4 columns: the exponents,
-    damping and load) and ``I`` (int64, 5 columns: the power codes, ``smooth`` and which of
-    the report's models with non-integer exponents it is, or -1), for drivers that hold
-    several points' laws in arrays (:func:`law_at` and :func:`rhs_at` read it back)."""
+    damping and load) and ``I`` (int64, 4 columns: the power codes and ``smooth``), for
+    drivers that hold several points' laws in arrays (:func:`law_at` and :func:`rhs_at`
+    read it back)."""
     F[row, 0] = c.alpha
     F[row, 1] = c.beta
     F[row, 2] = c.gamma
@@ -117,7 +115,6 @@ def put_law(F, I, row, c):
     I[row, 1] = c.kb
     I[row, 2] = c.kd
     I[row, 3] = 1 if c.smooth else 0
-    I[row, 4] = _model_of(c.alpha, c.beta)
 
 
 @jit(inline="always")
@@ -138,43 +135,10 @@ def _integer(p):
     return p == 1.0 or p == 2.0 or p == 3.0
 
 
-# The report's models whose exponents are not both integers (sweep.registry.MODELS, in its
-# order): their powers go through power codes, whose branches rhs_at folds away in a copy
-# of rhs for each (integer exponents take rhs's polynomials, with no codes to test).
-_CODED_MODELS = np.array([(a, b) for a, b in MODELS.values()
-                          if not (_integer.py_func(a) and _integer.py_func(b))], dtype=np.float64)
-
-
-@jit(inline="always")
-def _model_of(alpha, beta):
-    """Row of ``(alpha, beta)`` in ``_CODED_MODELS``, or -1."""
-    for k in range(_CODED_MODELS.shape[0]):
-        if alpha == _CODED_MODELS[k, 0] and beta == _CODED_MODELS[k, 1]:
-            return k
-    return -1
-
-
-# x^p for x > 0 by power code, for the models' own copies of rhs (rhs_at), which take the
-# one their code selects: _power's branches as functions.
-_x_one = jit(inline="always")(lambda x: x)
-_x_three_halves = jit(inline="always")(lambda x: x * math.sqrt(x))
-_x_two = jit(inline="always")(lambda x: x * x)
-_x_five_halves = jit(inline="always")(lambda x: x * x * math.sqrt(x))
-_x_five_fourths = jit(inline="always")(lambda x: x * math.sqrt(math.sqrt(x)))
-_x_three = jit(inline="always")(lambda x: x * x * x)
-_x_half = jit(inline="always")(lambda x: math.sqrt(x))
-_x_quarter = jit(inline="always")(lambda x: math.sqrt(math.sqrt(x)))
-_POSITIVE_POWER = {KIND_ONE: _x_one, _KIND_THREE_HALVES: _x_three_halves, _KIND_TWO: _x_two,
-                   _KIND_FIVE_HALVES: _x_five_halves, _KIND_FIVE_FOURTHS: _x_five_fourths,
-                   _KIND_THREE: _x_three, _KIND_HALF: _x_half, _KIND_QUARTER: _x_quarter}
-
-
 def _power(x, p, kind):
     """``x**p`` for ``x > 0``, and 0 for ``x <= 0`` (the report's ``x_+^p``; also for p = 0,
     where it is the indicator of contact, closed at x = 0: the bead is in contact from its
     first instant, so the damper acts at tau = 0)."""
-    # The formulas of _POSITIVE_POWER, written out: calls to them here cost compile time
-    # at every copy of this function (tests/test_contact.py holds them equal).
     if kind == _KIND_ZERO:
         return 1.0 if x >= 0.0 else 0.0
     if x <= 0.0:
@@ -322,80 +286,49 @@ rhs_called = jit()(_rhs_with(ppow))
 _rhs_coded_called = jit(inline="always")(_rhs_with(ppow_called))
 
 
-def _model_rhs(alpha, beta):
-    """:func:`rhs` for the exponents ``(alpha, beta)`` (not both integers) fixed: the
-    formulas of their powers (``_POSITIVE_POWER``) chosen here, so that the copy has no
-    branch on the codes. (The power of beta - 1 = 0, Hertz's, is the contact indicator.)"""
-    kd, ka = power_kind.py_func(beta - 1.0), power_kind.py_func(alpha)
-    indicator = kd == _KIND_ZERO
-    form_d = _POSITIVE_POWER[KIND_ONE if indicator else kd]
-    form_a = _POSITIVE_POWER[ka]
-    equal = alpha == beta
-
-    def model_rhs(u, w, gamma, gtilde):
-        # rhs's coded branch, with _power's branches for these codes.
-        if indicator:
-            pd = 1.0 if u >= 0.0 else 0.0
-        else:
-            pd = form_d(u) if u > 0.0 else 0.0
-        pb = u * pd if u > 0.0 else 0.0
-        pa = pb if equal else (form_a(u) if u > 0.0 else 0.0)
-        return _forces(w, beta, gamma, gtilde, pd, pb, pa)
-    return jit(inline="always")(model_rhs)
-
-
-if len(_CODED_MODELS) != 4:
-    raise ImportError("rhs_at has one branch per model of sweep.registry.MODELS with "
-                      "non-integer exponents: update it")
-_rhs_m0, _rhs_m1, _rhs_m2, _rhs_m3 = (_model_rhs(a, b) for a, b in _CODED_MODELS)
-
-
 @jit(inline="always")
 def rhs_at(u, w, F, I, row):
     """``rhs(u, w, law_at(F, I, row))``, value for value, for the stages of drivers that
-    hold their points' laws in rows (:func:`put_law`).
+    hold their points' laws in rows (:func:`put_law`), with the coded powers called.
 
-    A law of the report's models gets a copy of :func:`rhs` of its own in which its
-    exponents and power codes are constants, so that the branches on them fold away;
-    elsewhere the codes are known only at run time, and testing them took about an eighth
-    of a KK point's time (measured interleaved, 2026-12-02). Other exponents take the
-    general copy.
+    The lanes whose laws :func:`rhs_vector` takes go as vectors instead: the report's laws
+    (Hertz, TTI, KK, SHC, linear). Until 2026-12-05 each of the report's models with
+    non-integer exponents had a copy of :func:`rhs` here with its codes as constants (an
+    eighth less time a KK point then); the vector groups made them a second of first
+    compile for groups mixing those laws with others only (docs/speed/history.md).
     """
-    k = I[row, 4]
-    if k >= 0:
-        gamma, gtilde = F[row, 2], F[row, 3]
-        # One branch per model: each copy is compiled with its exponents as constants.
-        if k == 0:
-            return _rhs_m0(u, w, gamma, gtilde)
-        if k == 1:
-            return _rhs_m1(u, w, gamma, gtilde)
-        if k == 2:
-            return _rhs_m2(u, w, gamma, gtilde)
-        if k == 3:
-            return _rhs_m3(u, w, gamma, gtilde)
     return _rhs_coded_called(u, w, law_at(F, I, row))
 
 
-# The powers that rhs_vector forms for all lanes at once: alpha = 3/2, and u^(beta-1) for
-# the report's beta (1, 5/4, 3/2, 5/2: Hertz, TTI, KK, SHC).
+# The laws whose stages rhs_vector forms for groups of lanes: alpha = 3/2 with the report's
+# beta (1, 5/4, 3/2, 5/2: Hertz, TTI, KK, SHC), coded by the power code of beta - 1, and
+# the linear law, whose forces are polynomials in u of either sign (code _LINEAR).
+_LINEAR = -1
+
+
 @jit(inline="always")
 def vector_law_at(I, row):
     """The law in ``row`` of ``I`` (:func:`put_law`) is one whose stages
-    :func:`rhs_vector` forms: alpha = 3/2 and beta one of the report's (Hertz, TTI, KK,
-    SHC)."""
+    :func:`rhs_vector` forms: one of the report's (Hertz, TTI, KK, SHC, linear)."""
     kd = I[row, 2]
-    return I[row, 0] == _KIND_THREE_HALVES and I[row, 3] == 0 and (
+    if I[row, 3] != 0:
+        return I[row, 0] == KIND_ONE and kd == _KIND_ZERO          # linear
+    return I[row, 0] == _KIND_THREE_HALVES and (
         kd == _KIND_ZERO or kd == _KIND_QUARTER or kd == _KIND_HALF
         or kd == _KIND_THREE_HALVES)
+
+
+@jit(inline="always")
+def _code(I, row):
+    return float(I[row, 2]) if I[row, 3] == 0 else float(_LINEAR)
 
 
 @jit(inline="always")
 def vector_law(F, I, first):
     """The laws of the :data:`~sweep.kernels.vmath.VECTOR` rows of ``F, I`` from
     ``first`` (:func:`put_law`) as tuples, one element a row, for :func:`rhs_vector`:
-    ``(kd, beta, gamma, g~)``, the power codes as float64."""
-    return ((float(I[first, 2]), float(I[first + 1, 2]), float(I[first + 2, 2]),
-             float(I[first + 3, 2])),
+    ``(code, beta, gamma, g~)``, the codes as float64."""
+    return ((_code(I, first), _code(I, first + 1), _code(I, first + 2), _code(I, first + 3)),
             _column(F, first, 1), _column(F, first, 2), _column(F, first, 3))
 
 
@@ -407,9 +340,8 @@ def _column(F, first, col):
 @jit(inline="always")
 def rhs_vector(u, w, law):
     """:func:`rhs_at` of the rows of :func:`vector_law` (each a law of
-    :func:`vector_law_at`) at the tuples ``(u, w)``, as vector operations: each element
-    has the bits of :func:`rhs_at`'s (its model's copy of :func:`rhs`: the same formulas in
-    the same order; tests/test_contact.py)."""
+    :func:`vector_law_at`) at ``(u, w)``, as vector operations: each element has the bits of
+    :func:`rhs_at`'s (the same formulas in the same order; tests/test_contact.py)."""
     kd, beta, gamma, gtilde = law
     x = vwhere_positive(u, u, 1.0)
     s = vsqrt(x)
@@ -421,6 +353,11 @@ def rhs_vector(u, w, law):
                                               vwhere_nonnegative(u, 1.0, 0.0), 0.0))
     pb = vwhere_positive(u, vmul(u, pd), 0.0)
     pa = vwhere_positive(u, t, 0.0)
+    # The linear law: u^0 = 1, u^1 = u whatever the sign of u (rhs's polynomials; u * 1
+    # is u, bit for bit).
+    pd = vwhere_equal(kd, _LINEAR, 1.0, pd)
+    pb = vwhere_equal(kd, _LINEAR, u, pb)
+    pa = vwhere_equal(kd, _LINEAR, u, pa)
     # _forces, operation for operation.
     v = vsub(w, vmul(gamma, pb))
     fq = vmul(vmul(vmul(gamma, -1.0), pb),
