@@ -185,8 +185,8 @@ def _polynomial(x, kind):
 
 @jit(inline="always")
 def _forces(w, beta, gamma, gtilde, pd, pb, pa):
-    """``(u', w', r')`` from the powers ``(u^(beta-1), u^beta, u^alpha)`` (:func:`rhs`,
-    and the models' copies of it, :func:`rhs_at`)."""
+    """``(u', w', r')`` from the powers ``(u^(beta-1), u^beta, u^alpha)`` (:func:`rhs`;
+    :func:`rhs_vector` writes the same operations for vectors)."""
     v = w - gamma * pb
     return v, gtilde - pa, -gamma * pb * (gtilde - pa - gamma * beta * pd * v)
 
@@ -279,10 +279,10 @@ def _rhs_with(power):
 rhs = jit(inline="always")(_rhs_with(ppow))
 #: The same compiled once and called: where a march starts or jumps (once per point).
 rhs_called = jit()(_rhs_with(ppow))
-#: :func:`rhs` with the coded powers called (:func:`ppow_called`): the laws that
-#: :func:`rhs_at` has no copy for. Only exponents neither integer nor general take that
-#: branch (none of the benchmarks' draws): inlined, _power's ten branches, twice, were
-#: 1.3 s of the lanes' first compile (copies of their IR at every level of inlining).
+#: :func:`rhs` with the coded powers called (:func:`ppow_called`): :func:`rhs_at`, for
+#: the lanes that do not go as vectors (:func:`vector_law_at`) and are not general at
+#: u > 0. Inlined, _power's ten branches, twice, were 1.3 s of the lanes' first compile
+#: (copies of their IR at every level of inlining).
 _rhs_coded_called = jit(inline="always")(_rhs_with(ppow_called))
 
 
