@@ -184,12 +184,14 @@ def _elementwise(x, y):
         vmath.vstore(out[3], i, vmath.vsqrt(b))
         vmath.vstore(out[4], i, vmath.vwhere_positive(a, b, -1.0))
         vmath.vstore(out[5], i, vmath.vwhere_nonnegative(a, 2.0, b))
-        vmath.vscatter(out[6], i, 1, vmath.vwhere_equal((i, i + 1, i + 2, i + 3), i + 2, a, b))
+        vmath.vscatter(out[6], i, 1, vmath.vwhere_equal(
+            (float(i), float(i + 1), float(i + 2), float(i + 3)), i + 2, a, b))
         codes = (float(i % 3), 1.0, float(i % 5), 2.0)
         vmath.vstore(out[7], i, vmath.vwhere_equal(codes, 2, a, b))
         # A root where a code matches; none in the blocks where i % 3 and i % 5 differ
         # from 1, whose result is b (the branch without the root).
-        vmath.vstore(out[8], i, vmath.vsqrt_where_equal((i % 3, 0, i % 5, 0), 1, b, a))
+        vmath.vstore(out[8], i, vmath.vsqrt_where_equal(
+            (float(i % 3), 0.0, float(i % 5), 0.0), 1, b, a))
     return out
 
 

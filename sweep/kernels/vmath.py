@@ -214,9 +214,7 @@ def sqrt_div4(typingctx, x, y):
                                        context.make_tuple(builder, x, ratios)])
         vt = ir.VectorType(ir.DoubleType(), _TUPLE)
         xv, yv = (_pack(builder, vt, cgutils.unpack_tuple(builder, a)) for a in args)
-        sqrt = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vt, [vt]),
-                                              f"llvm.sqrt.v{_TUPLE}f64")
-        root = builder.call(sqrt, [xv])
+        root = _sqrt(builder, xv)
         ratio = builder.fdiv(yv, root)
         out = [context.make_tuple(builder, x, [builder.extract_element(
             v, ir.Constant(ir.IntType(32), k)) for k in range(_TUPLE)]) for v in (root, ratio)]
@@ -265,8 +263,8 @@ class _VectorModel(models.PrimitiveModel):
         super().__init__(dmm, fe_type, _VT)
 
 
-def _is_tuple(t, dtype=types.float64):
-    return isinstance(t, types.UniTuple) and t.count == VECTOR and t.dtype == dtype
+def _is_tuple(t):
+    return isinstance(t, types.UniTuple) and t.count == VECTOR and t.dtype == types.float64
 
 
 def _operand(t):
@@ -329,8 +327,9 @@ vadd, vsub, vmul = _binary("fadd"), _binary("fsub"), _binary("fmul")
 
 
 def _sqrt(builder, v):
-    sqrt = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_VT, [_VT]),
-                                          f"llvm.sqrt.v{VECTOR}f64")
+    """LLVM's square root of a vector of doubles (IEEE, element by element)."""
+    sqrt = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v.type, [v.type]),
+                                          f"llvm.sqrt.v{v.type.count}f64")
     return builder.call(sqrt, [v])
 
 
@@ -363,21 +362,15 @@ vwhere_positive, vwhere_nonnegative = _where(">"), _where(">=")
 
 
 def _codes(k, value):
-    """Type check of codes (int64 tuple, or float64 operand holding integers) and the code
-    they are compared with."""
-    if not (_is_tuple(k, types.int64) or k == vector or _is_tuple(k)) or not isinstance(
-            value, types.Integer):
-        raise numba.core.errors.TypingError(f"codes ({VECTOR}-tuple of int64, or a vector) "
-                                            f"and an integer are needed, got {k} and {value}")
+    """Type check of codes (an operand holding integers) and the code they are compared
+    with."""
+    _operand(k)
+    if not isinstance(value, types.Integer):
+        raise numba.core.errors.TypingError(f"an integer code is needed, got {value}")
 
 
 def _equal(context, builder, k, kv, value, val):
     """The <VECTOR x i1> of ``k == value`` element by element."""
-    if _is_tuple(k, types.int64):
-        vi = ir.VectorType(ir.IntType(64), VECTOR)
-        code = context.cast(builder, val, value, types.int64)
-        return builder.icmp_signed("==", _pack(builder, vi, cgutils.unpack_tuple(builder, kv)),
-                                   _pack(builder, vi, [code] * VECTOR))
     code = context.cast(builder, val, value, types.float64)
     return builder.fcmp_ordered("==", _vector(builder, k, kv), _pack(builder, _VT,
                                                                       [code] * VECTOR))
@@ -385,8 +378,8 @@ def _equal(context, builder, k, kv, value, val):
 
 @intrinsic
 def vwhere_equal(typingctx, k, value, a, b):
-    """``a if k == value else b`` element by element, ``k`` codes (a tuple of int64, or
-    float64 holding integers)."""
+    """``a if k == value else b`` element by element, ``k`` codes (float64 holding
+    integers)."""
     _codes(k, value)
     _operand(a)
     _operand(b)
@@ -427,6 +420,15 @@ def vsqrt_where_equal(typingctx, k, value, x, b):
 def _flat(arr, *indices):
     return (isinstance(arr, types.Array) and arr.layout == "C" and arr.dtype == types.float64
             and all(isinstance(t, types.Integer) for t in indices))
+
+
+def _strided(context, builder, signature, args, count):
+    """The indices ``start + k stride``, k < count, of an intrinsic whose arguments 1 and 2
+    are start and stride."""
+    first = context.cast(builder, args[1], signature.args[1], types.intp)
+    step = context.cast(builder, args[2], signature.args[2], types.intp)
+    return [builder.add(first, builder.mul(step, ir.Constant(step.type, k)))
+            for k in range(count)]
 
 
 def _at(context, builder, arr, value, index, index_type):
@@ -476,11 +478,8 @@ def vscatter(typingctx, arr, start, stride, x):
 
     def codegen(context, builder, signature, args):
         data = context.make_array(arr)(context, builder, args[0]).data
-        first = context.cast(builder, args[1], start, types.intp)
-        step = context.cast(builder, args[2], stride, types.intp)
         v = _vector(builder, x, args[3])
-        for k in range(VECTOR):
-            at = builder.add(first, builder.mul(step, ir.Constant(step.type, k)))
+        for k, at in enumerate(_strided(context, builder, signature, args, VECTOR)):
             builder.store(builder.extract_element(v, ir.Constant(_I32, k)),
                           builder.gep(data, [at]))
         return context.get_dummy_value()
@@ -498,10 +497,8 @@ def vgather(typingctx, arr, start, stride):
 
     def codegen(context, builder, signature, args):
         data = context.make_array(arr)(context, builder, args[0]).data
-        first = context.cast(builder, args[1], start, types.intp)
-        step = context.cast(builder, args[2], stride, types.intp)
-        return _pack(builder, _VT, [builder.load(builder.gep(data, [builder.add(
-            first, builder.mul(step, ir.Constant(step.type, k)))])) for k in range(VECTOR)])
+        return _pack(builder, _VT, [builder.load(builder.gep(data, [at])) for at in
+                                    _strided(context, builder, signature, args, VECTOR)])
     return vector(arr, start, stride), codegen
 
 
@@ -517,11 +514,9 @@ def vdot(typingctx, arr, start, stride, coefficients):
                                             f"{start}, {stride}, {coefficients}")
 
     def codegen(context, builder, signature, args):
-        first = context.cast(builder, args[1], start, types.intp)
-        step = context.cast(builder, args[2], stride, types.intp)
         total = ir.Constant(_VT, [0.0] * VECTOR)
-        for j, c in enumerate(cgutils.unpack_tuple(builder, args[3])):
-            at = builder.add(first, builder.mul(step, ir.Constant(step.type, j)))
+        cs = cgutils.unpack_tuple(builder, args[3])
+        for c, at in zip(cs, _strided(context, builder, signature, args, len(cs))):
             x = builder.load(_at(context, builder, arr, args[0], at, types.intp), align=8)
             term = builder.fmul(_pack(builder, _VT, [c] * VECTOR), x, flags=_CONTRACT)
             total = builder.fadd(total, term, flags=_CONTRACT)
