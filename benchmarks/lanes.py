@@ -86,7 +86,7 @@ def all_lanes(n, gamma, gtilde):
         c = make_law(1.5, 1.5, (1.0 + 0.1 * l) * gamma, gtilde)
         put_law(LF, LI, l, c)
         K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = rhs(u[l], w[l], c)
-    vec = vector_groups(LI)
+    vec = vector_groups(LF, LI, S)
     acc = 0.0
     for _ in range(n // LANES):
         rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec)

@@ -332,7 +332,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     budget, ends = b(budget), b(ends)     # the others are read once per point
     order = _general_first(alpha, beta, todo)
     nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps, order)
-    vec = vector_groups(ln.LI)      # a lane's law changes only where it takes a point
+    vec = vector_groups(ln.LF, ln.LI, ln.S)    # again whenever lanes take points
     while _any(ln.live):
         idle = False
         for lane in range(LANES):      # the step's size, after march()'s budget test
@@ -360,6 +360,6 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
                         ln.live[lane], idle = False, True
         if idle:
             nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, order)
-            vec = vector_groups(ln.LI)
+            vec = vector_groups(ln.LF, ln.LI, ln.S)
     # The owners live until the borrowed views are done with.
     own.live[0] = K2_own[0, 0] == Q_own[0, 0]

@@ -153,7 +153,8 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec):
     start on entry), its ``(u_new, w_new, dr)`` in ``y[l, :3]`` and the step's local error
     estimates of w and q (:func:`local_error`) in ``y[l, 3:5]``; the number of lanes a
     multiple of four (:func:`_general_stage`). ``S``: scratch, :data:`SCRATCH` times the
-    lanes; ``vec``: the lanes' :func:`vector_groups`.
+    lanes; ``vec``: the lanes' :func:`vector_groups`, run on ``S`` since their laws last
+    changed.
 
     Each stage is formed for every lane before the next: the lanes' chains of dependent
     operations (each stage waits on the power of u of the one before) overlap, where one
@@ -162,7 +163,7 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec):
     (:func:`_vector_stage`, :func:`_vector_combine`). Per lane the arithmetic is
     :func:`rk_step`'s and :func:`local_error`'s, operation for operation.
     """
-    _vectors_in(vec, u, w, h, K, LF, LI, S)
+    _vectors_in(vec, u, w, h, K, S)
     for i in range(1, N_STAGES):
         pending = 0
         for first in range(0, live.size, VECTOR):
@@ -195,24 +196,33 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec):
 
 # Called, not inlined: once per refill of the lanes, and each inlined copy cost compile time.
 @jit()
-def vector_groups(LI):
+def vector_groups(LF, LI, S):
     """Bit ``first`` set for each group of :data:`~sweep.kernels.vmath.VECTOR` lanes
-    ``first ..`` whose laws (rows of ``LI``) all take
+    ``first ..`` whose laws (rows of ``LF, LI``) all take
     :func:`~sweep.kernels.contact.rhs_vector`: :func:`rk_step_lanes` forms their stages as
-    vectors. Idle lanes count too: their results are not read."""
+    vectors. Idle lanes count too: their results are not read. Those groups' laws are
+    stored in ``S`` (:func:`_vectors_in`): a lane's law changes only where it takes a
+    point, so the caller runs this then, not at every step."""
     vec = 0
-    for first in range(0, LI.shape[0], VECTOR):
+    n = LI.shape[0]
+    for first in range(0, n, VECTOR):
         ok = True
         for lane in range(first, first + VECTOR):
             ok = ok and vector_law_at(LI, lane)
         if ok:
             vec |= 1 << first
+            kd, beta, gamma, gtilde = vector_law(LF, LI, first)
+            vstore(S, _LAW * n + first, kd)
+            vstore(S, (_LAW + 1) * n + first, beta)
+            vstore(S, (_LAW + 2) * n + first, gamma)
+            vstore(S, (_LAW + 3) * n + first, gtilde)
     return vec
 
 
 @jit(inline="always")
-def _vectors_in(vec, u, w, h, K, LF, LI, S):
-    """The first stage, step and law of the groups of ``vec`` stored in ``S`` as vectors.
+def _vectors_in(vec, u, w, h, K, S):
+    """The first stage and step of the groups of ``vec`` stored in ``S`` as vectors (their
+    laws are there already: :func:`vector_groups`).
 
     ``S`` holds rows of the lanes, row r of the lanes ``first ..`` at ``r n + first`` (n
     lanes): stage j's u, w and q components in rows 3j to 3j + 2, then the rows from _U0
@@ -229,11 +239,6 @@ def _vectors_in(vec, u, w, h, K, LF, LI, S):
             vstore(S, _U0 * n + first, vgather(u, first, 1))
             vstore(S, _W0 * n + first, vgather(w, first, 1))
             vstore(S, _H0 * n + first, vgather(h, first, 1))
-            kd, beta, gamma, gtilde = vector_law(LF, LI, first)
-            vstore(S, _LAW * n + first, kd)
-            vstore(S, (_LAW + 1) * n + first, beta)
-            vstore(S, (_LAW + 2) * n + first, gamma)
-            vstore(S, (_LAW + 3) * n + first, gtilde)
 
 
 @jit(inline="always")
