@@ -302,6 +302,42 @@ def _moved_on(ln, lane, rest_tol):
     return True
 
 
+# The lanes' rare per-lane paths, called, not inlined: inlined, each copied the march's
+# step logic into the driver at compile time.
+@jit()
+def _sized_or_ended(ln, lane, budget, ends):
+    """Where :func:`_guessed` did not size ``lane``'s step: its size by
+    :func:`~sweep.kernels.stepsize.first_guess`, or, its budget spent, its Ending
+    (:func:`~sweep.kernels.march.out_of_budget`) stored and the lane idle. Returns whether
+    it went idle."""
+    st, c = _state(ln, lane), law_at(ln.LF, ln.LI, lane)
+    if st.n < budget[ln.point[lane]]:
+        ln.h[lane] = first_guess(st.u, st.v, st.p, c)
+        return False
+    _put_end(ends, ln.point[lane], out_of_budget(st, c))
+    ln.live[lane] = False
+    return True
+
+
+@jit()
+def _finished(ln, lane, K2, Q, rest_tol, e_tol, budget, ends):
+    """Where :func:`_moved_on` did not move ``lane`` on: the rest of march()'s step
+    (:func:`~sweep.kernels.march.after_stages_estimated`), its state stored, or, where its
+    march ended, its Ending stored and the lane idle. Returns whether it went idle."""
+    y = ln.y
+    # ln.K[lane] is a view of a borrowed array: it costs no count.
+    st, end = after_stages_estimated(
+        _state(ln, lane), law_at(ln.LF, ln.LI, lane), _creep_at(ln, lane),
+        ln.h[lane], y[lane, 0], y[lane, 1], y[lane, 2], y[lane, 3], y[lane, 4],
+        ln.K[lane], K2, Q, rest_tol, e_tol, budget[ln.point[lane]])
+    if end.kind == GOING:
+        _put_state(ln, lane, st)
+        return False
+    _put_end(ends, ln.point[lane], end)
+    ln.live[lane] = False
+    return True
+
+
 # Called only by kernels (tests reach it through a jitted caller): no wrappers, and no
 # machine code of its own (sweep.kernels._jit._leave_helpers_unemitted).
 @jit()
@@ -337,27 +373,12 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
         idle = False
         for lane in range(LANES):      # the step's size, after march()'s budget test
             if ln.live[lane] and not _guessed(ln, lane, budget):
-                st, c = _state(ln, lane), law_at(ln.LF, ln.LI, lane)
-                if st.n < budget[ln.point[lane]]:
-                    ln.h[lane] = first_guess(st.u, st.v, st.p, c)
-                else:
-                    _put_end(ends, ln.point[lane], out_of_budget(st, c))
-                    ln.live[lane], idle = False, True
+                idle = _sized_or_ended(ln, lane, budget, ends) or idle
         if not idle:
             rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y, ln.S, vec)
             for lane in range(LANES):  # the rest of march()'s step
                 if ln.live[lane] and not _moved_on(ln, lane, rest_tol):
-                    # ln.K[lane] is a view of a borrowed array: it costs no count.
-                    y = ln.y
-                    st, end = after_stages_estimated(
-                        _state(ln, lane), law_at(ln.LF, ln.LI, lane), _creep_at(ln, lane),
-                        ln.h[lane], y[lane, 0], y[lane, 1], y[lane, 2], y[lane, 3], y[lane, 4],
-                        ln.K[lane], K2, Q, rest_tol, e_tol, budget[ln.point[lane]])
-                    if end.kind == GOING:
-                        _put_state(ln, lane, st)
-                    else:
-                        _put_end(ends, ln.point[lane], end)
-                        ln.live[lane], idle = False, True
+                    idle = _finished(ln, lane, K2, Q, rest_tol, e_tol, budget, ends) or idle
         if idle:
             nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, order)
             vec = vector_groups(ln.LF, ln.LI, ln.S)
