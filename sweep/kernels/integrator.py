@@ -212,7 +212,9 @@ def _decided(c, end, steps):
     return Result(e, exit_time(c, end, e, status, err), end.u_max, end.n, status, err, e_q, e_v)
 
 
-@jit(inline="always")
+# Called, not inlined: once per march, from three places of _kernel, each of which copied
+# the decision and the exit time into it at compile time.
+@jit()
 def _ended(alpha, beta, gamma, gtilde, i, ends, j, steps):
     """The :class:`Result` of point i's march at resolution ``steps``, whose Ending
     :func:`sweep.kernels.lanes.march_lanes` stored in row j of ``ends``."""
