@@ -61,7 +61,7 @@ from sweep.kernels.creep import Creep, creep_constants
 from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
                                  carry_last_stage, compensated_sum, out_of_budget, scratch,
                                  start, uneventful)
-from sweep.kernels.stepper import N_STAGES, SCRATCH, rk_step_lanes, vector_groups
+from sweep.kernels.stepper import N_STAGES, SCRATCH, rk_step_lanes, stages_out, vector_groups
 from sweep.kernels.stepsize import (StepPolicy, first_guess, policy, uncapped,
                                     uncapped_guess)
 from sweep.kernels.vmath import VECTOR
@@ -378,6 +378,8 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
             rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y, ln.S, vec)
             for lane in range(LANES):  # the rest of march()'s step
                 if ln.live[lane] and not _moved_on(ln, lane, rest_tol):
+                    if vec >> (lane - lane % VECTOR) & 1:
+                        stages_out(ln.K, ln.S, lane)
                     idle = _finished(ln, lane, K2, Q, rest_tol, e_tol, budget, ends) or idle
         if idle:
             nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, order)

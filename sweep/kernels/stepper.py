@@ -22,8 +22,8 @@ from sweep.kernels.tableau import DORMAND_PRINCE_54
 from sweep.kernels.vmath import (VECTOR, exp4, log4, vadd, vdot, vgather, vload, vmul, vpack,
                                  vscatter, vstore)
 
-__all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "SCRATCH", "vector_groups", "rk_stage",
-           "stage_point", "rk_combine", "local_error", "dense_coefficients", "dense_eval",
+__all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "SCRATCH", "vector_groups", "stages_out",
+           "rk_stage", "stage_point", "rk_combine", "local_error", "dense_coefficients", "dense_eval",
            "N_STAGES", "N_DENSE"]
 
 _T = DORMAND_PRINCE_54
@@ -150,8 +150,10 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec):
     """:func:`rk_step` for several points at once: lane ``l`` (where ``live[l]``) steps
     ``(u[l], w[l])`` by ``h[l]`` with the law in row ``l`` of ``LF, LI``
     (:func:`sweep.kernels.contact.rhs_at`), its stages in ``K[l]`` (``K[l, 0]`` = f at the
-    start on entry), its ``(u_new, w_new, dr)`` in ``y[l, :3]`` and the step's local error
-    estimates of w and q (:func:`local_error`) in ``y[l, 3:5]``; the number of lanes a
+    start on entry; for the lanes of a vector group only the last there, the others in
+    ``S`` until :func:`stages_out`), its ``(u_new, w_new, dr)`` in ``y[l, :3]`` and the
+    step's local error estimates of w and q (:func:`local_error`) in ``y[l, 3:5]``; the
+    number of lanes a
     multiple of four (:func:`_general_stage`). ``S``: scratch, :data:`SCRATCH` times the
     lanes; ``vec``: the lanes' :func:`vector_groups`, run on ``S`` since their laws last
     changed.
@@ -258,13 +260,28 @@ def _vector_stage(i, first, K, S):
     f = rhs_vector(vadd(vload(S, _U0 * n + first), vmul(h, du)),
                    vadd(vload(S, _W0 * n + first), vmul(h, dw)), law)
     fu, fw, fq = f
-    stride = K.shape[1] * K.shape[2]
     vstore(S, 3 * i * n + first, fu)
     vstore(S, (3 * i + 1) * n + first, fw)
     vstore(S, (3 * i + 2) * n + first, fq)
-    vscatter(K, first * stride + 3 * i, stride, fu)
-    vscatter(K, first * stride + 3 * i + 1, stride, fw)
-    vscatter(K, first * stride + 3 * i + 2, stride, fq)
+    if i == N_STAGES - 1:
+        # Only the last stage (f at the step's end, the next step's first) goes to K at
+        # every step; the others where a lane's step needs them (stages_out).
+        stride = K.shape[1] * K.shape[2]
+        vscatter(K, first * stride + 3 * i, stride, fu)
+        vscatter(K, first * stride + 3 * i + 1, stride, fw)
+        vscatter(K, first * stride + 3 * i + 2, stride, fq)
+
+
+@jit(inline="always")
+def stages_out(K, S, lane):
+    """Stages ``1 .. N_STAGES - 2`` of ``lane``'s step, a lane of a vector group of
+    :func:`rk_step_lanes`, from the scratch ``S`` into ``K[lane]`` (where the lane's step
+    needs more of them than the last: events, rules; stored there at every step, they were
+    15 of the 18 stores a step of each lane)."""
+    n = K.shape[0]
+    for j in range(1, N_STAGES - 1):
+        for comp in range(3):
+            K[lane, j, comp] = S[(3 * j + comp) * n + lane]
 
 
 # The weights as tuples, for vdot.
