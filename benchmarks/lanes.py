@@ -80,7 +80,7 @@ def all_lanes(n, gamma, gtilde):
     K = np.empty((LANES, N_STAGES, 3))
     LF, LI = np.empty((LANES, LAW_COLUMNS[0])), np.empty((LANES, LAW_COLUMNS[1]), np.int64)
     u, w, h = np.full(LANES, 0.3), np.full(LANES, 0.2), np.full(LANES, _H)
-    live, y = np.ones(LANES, np.bool_), np.empty((LANES, 5))
+    live, y = np.ones(LANES, np.bool_), np.empty((5, LANES))
     S = np.empty(SCRATCH * LANES)
     for l in range(LANES):
         c = make_law(1.5, 1.5, (1.0 + 0.1 * l) * gamma, gtilde)
@@ -91,9 +91,9 @@ def all_lanes(n, gamma, gtilde):
     for _ in range(n // LANES):
         rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec)
         for l in range(LANES):
-            u[l], w[l] = y[l, 0], y[l, 1]
+            u[l], w[l] = y[0, l], y[1, l]
             K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = K[l, 6, 0], K[l, 6, 1], K[l, 6, 2]
-            acc += y[l, 2]
+            acc += y[2, l]
     return acc
 
 

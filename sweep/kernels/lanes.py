@@ -96,7 +96,7 @@ class Lanes(NamedTuple):
     u: np.ndarray       # float64: the state's u and w, which the stages read
     w: np.ndarray
     h: np.ndarray       # float64: the step about to be taken
-    y: np.ndarray       # float64 (LANES, 5): its (u_new, w_new, dr), local errors of w, q
+    y: np.ndarray       # float64 (5, LANES): its (u_new, w_new, dr), local errors of w, q
     K: np.ndarray       # float64 (LANES, N_STAGES, 3): each lane's stages
     S: np.ndarray       # float64 (SCRATCH LANES): rk_step_lanes's scratch
 
@@ -139,7 +139,7 @@ def _lanes():
     return Lanes(point, live, np.empty((LANES, LAW_COLUMNS[0])),
                  np.empty((LANES, LAW_COLUMNS[1]), np.int64),
                  np.empty((LANES, 7)), np.empty((LANES, 14)), np.empty((LANES, 6), np.int64),
-                 np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((LANES, 5)),
+                 np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((5, LANES)),
                  np.empty((LANES, N_STAGES, 3)), np.empty(SCRATCH * LANES))
 
 
@@ -285,8 +285,8 @@ def _moved_on(ln, lane, rest_tol):
     f = ln.SF
     n = ln.SI
     y = ln.y
-    u1, w1, v1 = y[lane, 0], y[lane, 1], ln.K[lane, N_STAGES - 1, 0]
-    r1, rc1 = compensated_sum(f[lane, _R], f[lane, _RC], y[lane, 2])
+    u1, w1, v1 = y[0, lane], y[1, lane], ln.K[lane, N_STAGES - 1, 0]
+    r1, rc1 = compensated_sum(f[lane, _R], f[lane, _RC], y[2, lane])
     if not uneventful(n[lane, _PHASE], n[lane, _CAPPED] != 0, u1, w1, v1, r1,
                       n[lane, _EP1] != 0, f[lane, _QS], gtilde_at(ln.LF, lane),
                       _ubar_at(ln, lane), rest_tol):
@@ -294,8 +294,8 @@ def _moved_on(ln, lane, rest_tol):
     ln.u[lane], ln.w[lane] = u1, w1
     f[lane, _T] = f[lane, _T] + ln.h[lane]
     f[lane, _R], f[lane, _RC], f[lane, _V] = r1, rc1, v1
-    f[lane, _LW] = f[lane, _LW] + abs(y[lane, 3])
-    f[lane, _LQ] = f[lane, _LQ] + abs(y[lane, 4])
+    f[lane, _LW] = f[lane, _LW] + abs(y[3, lane])
+    f[lane, _LQ] = f[lane, _LQ] + abs(y[4, lane])
     n[lane, _N] += 1
     # ln.K[lane] is a view of a borrowed array: it costs no count.
     carry_last_stage(ln.K[lane])
@@ -328,7 +328,7 @@ def _finished(ln, lane, K2, Q, rest_tol, e_tol, budget, ends):
     # ln.K[lane] is a view of a borrowed array: it costs no count.
     st, end = after_stages_estimated(
         _state(ln, lane), law_at(ln.LF, ln.LI, lane), _creep_at(ln, lane),
-        ln.h[lane], y[lane, 0], y[lane, 1], y[lane, 2], y[lane, 3], y[lane, 4],
+        ln.h[lane], y[0, lane], y[1, lane], y[2, lane], y[3, lane], y[4, lane],
         ln.K[lane], K2, Q, rest_tol, e_tol, budget[ln.point[lane]])
     if end.kind == GOING:
         _put_state(ln, lane, st)

@@ -151,8 +151,8 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec):
     ``(u[l], w[l])`` by ``h[l]`` with the law in row ``l`` of ``LF, LI``
     (:func:`sweep.kernels.contact.rhs_at`), its stages in ``K[l]`` (``K[l, 0]`` = f at the
     start on entry; for the lanes of a vector group only the last there, the others in
-    ``S`` until :func:`stages_out`), its ``(u_new, w_new, dr)`` in ``y[l, :3]`` and the
-    step's local error estimates of w and q (:func:`local_error`) in ``y[l, 3:5]``; the
+    ``S`` until :func:`stages_out`), its ``(u_new, w_new, dr)`` in ``y[:3, l]`` and the
+    step's local error estimates of w and q (:func:`local_error`) in ``y[3:5, l]``; the
     number of lanes a
     multiple of four (:func:`_general_stage`). ``S``: scratch, :data:`SCRATCH` times the
     lanes; ``vec``: the lanes' :func:`vector_groups`, run on ``S`` since their laws last
@@ -190,10 +190,10 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec):
             continue
         for lane in range(first, first + VECTOR):
             if live[lane]:
-                y[lane, 0], y[lane, 1], y[lane, 2] = _combine_lane(u[lane], w[lane], h[lane],
+                y[0, lane], y[1, lane], y[2, lane] = _combine_lane(u[lane], w[lane], h[lane],
                                                                    K, lane)
                 # K[lane] is a view of a borrowed array (sweep.kernels.lanes): no count.
-                _, y[lane, 3], y[lane, 4] = local_error(K[lane], h[lane])
+                _, y[3, lane], y[4, lane] = local_error(K[lane], h[lane])
 
 
 # Called, not inlined: once per refill of the lanes, and each inlined copy cost compile time.
@@ -293,19 +293,18 @@ _E_TERMS = tuple(float(d) for d in _E)
 def _vector_combine(first, y, S):
     """:func:`rk_combine` and :func:`local_error` of the lanes ``first ..`` as vectors,
     from their stages in ``S`` (:func:`_vectors_in`), into their rows of ``y``."""
-    n = y.shape[0]
+    n = y.shape[1]
     du = vdot(S, first, 3 * n, _B_TERMS)
     dw = vdot(S, n + first, 3 * n, _B_TERMS)
     dq = vdot(S, 2 * n + first, 3 * n, _B_TERMS)
     ew = vdot(S, n + first, 3 * n, _E_TERMS)
     eq = vdot(S, 2 * n + first, 3 * n, _E_TERMS)
     h = vload(S, _H0 * n + first)
-    cols = y.shape[1]
-    vscatter(y, first * cols, cols, vadd(vload(S, _U0 * n + first), vmul(h, du)))
-    vscatter(y, first * cols + 1, cols, vadd(vload(S, _W0 * n + first), vmul(h, dw)))
-    vscatter(y, first * cols + 2, cols, vmul(h, dq))
-    vscatter(y, first * cols + 3, cols, vmul(h, ew))
-    vscatter(y, first * cols + 4, cols, vmul(h, eq))
+    vstore(y, first, vadd(vload(S, _U0 * n + first), vmul(h, du)))
+    vstore(y, n + first, vadd(vload(S, _W0 * n + first), vmul(h, dw)))
+    vstore(y, 2 * n + first, vmul(h, dq))
+    vstore(y, 3 * n + first, vmul(h, ew))
+    vstore(y, 4 * n + first, vmul(h, eq))
 
 
 # Lanes whose powers go to the vector functions together: vmath's 4-tuples, built and
