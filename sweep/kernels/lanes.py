@@ -28,19 +28,19 @@ is copied, at every inlined call level, and in the lanes' loop, where nothing wa
 latency to hide them, those updates took 70% of the time (``perf``: the ``lock`` of
 ``NRT_incref`` and ``NRT_decref``); in the one-point march they hide in its latency.
 
-Where every lane of a group of four marches a law of the report with alpha = 3/2 (Hertz,
-TTI, KK, SHC: :func:`sweep.kernels.stepper.vector_groups`, judged when lanes take points),
+Where every lane of a group of four marches a law of the report (Hertz, TTI, KK, SHC, the
+linear law: :func:`sweep.kernels.stepper.vector_groups`, judged when lanes take points),
 the group's stages, their combination and local error estimates go as vectors of its
 lanes (:func:`sweep.kernels.contact.rhs_vector`): 19-31% more points a second on those
 laws (2026-12-05).
 
-Cost (one core, KK, ``python benchmarks/step_cost.py``): 28 ns a step with the vector
-groups, 40 before them on 2026-12-05, 51 before the uneventful steps were moved in place,
-48-53 ns on 2026-12-01 (against 78 for one point's march then); the stages, their
-combination and errors alone take 19-20 ns of it (``benchmarks/lanes.py``). Its first
-compile takes about 13 s (the callees it shares with the one-point march included; 10
-s before those copies) against 7 s for the one-point march, which array calls no longer
-compile.
+Cost (one core, KK, ``python benchmarks/step_cost.py``): 22.5 ns a step (2026-12-05, 13:40
+UTC), 28 ns before the vector groups' stages stayed in their scratch and the rare
+per-lane paths were called (:func:`_finished`, :func:`_sized_or_ended`), 40 before the
+vector groups, 51 before the uneventful steps were moved in place, 48-53 ns on 2026-12-01
+(against 78 for one point's march then); the stages, their combination and errors alone
+take 16 ns of it (``benchmarks/lanes.py``). Its first compile, the called paths
+included, takes about 4 s of the first ``sweep.cor()``'s 12-13 s.
 
 Owns: the multi-point driver and the layout of its lanes. May import: contact, creep,
 stepper, stepsize, march, vmath.
