@@ -196,6 +196,39 @@ def test_a_called_helper_serves_kernels_and_python_through_a_twin():
     assert inlined(1.5) == 2.5
 
 
+def _increfs(dispatcher):
+    """Calls of NRT_incref in a helper's own function, as compiled under a package kernel
+    (before the kernel's module passes, whose pruning removes them where it can)."""
+    (cres,) = dispatcher.overloads.values()
+    ir = cres.library.get_llvm_str()
+    start = ir.index(f"@{cres.fndesc.llvm_func_name}(")
+    return ir[start:ir.index("\n}", start)].count("@NRT_incref(")
+
+
+def test_an_uncounted_helper_takes_its_callers_arrays_without_reference_counts():
+    if not _jit._leave_helpers_unemitted():
+        pytest.skip("numba's codegen is not one EXECUTABLE_SOURCES knows")
+
+    def fill(t, k):
+        row = t[1][k]       # a view of an array in a tuple: counted where counted
+        for j in range(row.size):
+            row[j] = t[0][j] + k
+        return row.sum()
+
+    def kernel(a, b):
+        return helper((a, b), 1) + counted((a, b), 0)
+
+    helper = _jit.jit(counted=False)(fill)
+    counted = _jit.jit()(fill)
+    kernel = _as_if_in("sweep.kernels.fake", kernel)
+    a, b = np.arange(3.0), np.zeros((2, 3))
+    assert kernel(a, b) == (1.0 + 2.0 + 3.0) + (0.0 + 1.0 + 2.0)
+    np.testing.assert_array_equal(b, [[0.0, 1.0, 2.0], [1.0, 2.0, 3.0]])
+    assert _increfs(helper) == 0 < _increfs(counted)
+    # From Python, through its twin, the same.
+    assert helper((a, np.zeros((2, 3))), 1) == 6.0
+
+
 class _Stacks(numba.core.event.Listener):
     """Records, at the start of every compile, whether it runs under
     :func:`_jit.on_own_chunk`'s frame."""

@@ -185,8 +185,16 @@ def kernel_cache() -> Iterator[None]:
 FLAGS = {"error_model": "numpy", "nogil": True, "fastmath": {"contract"}}
 
 
-def jit(entry: bool = False, **options):
+def jit(entry: bool = False, counted: bool = True, **options):
     """``numba.njit`` with the package's :data:`FLAGS` (for helpers compiled into kernels).
+
+    ``counted=False``: a called helper that allocates nothing and keeps no array beyond its
+    call is compiled without reference counts (numba's ``_nrt=False``): its caller holds
+    the arrays it is passed. Each array variable of a helper costs a call of
+    ``NRT_incref`` and one of ``NRT_decref`` (on the lanes' borrowed views too, whose
+    records are null), 30-50 a call of the lanes' per-point and per-event helpers, which
+    numba's reference-count pruning leaves where control flow branches: 100-150 ns less a
+    KK point (``benchmarks/step_cost.py``, 2026-12-05).
 
     Compile time: every dispatcher a kernel calls costs 0.1-0.3 s of its own (its optimised
     IR, which includes all it calls again), and every ``inline="always"`` call site costs
@@ -204,6 +212,8 @@ def jit(entry: bool = False, **options):
     of course says ``entry=True``. Inlined helpers keep their wrappers, which cost nothing
     until Python calls them.
     """
+    if not counted:
+        options["_nrt"] = False
     if entry or options.get("inline") == "always":
         return lambda fn: _entry(numba.njit(**FLAGS, **options)(fn))
 

@@ -47,7 +47,7 @@ def _rounding(which, target, u0, w0, Q):
     return 2.0 * _EPS * scale
 
 
-@jit()
+@jit(counted=False)
 def locate(which, target, u0, w0, Q, c, ta, tb):
     """Fraction ``theta`` in ``[ta, tb]`` of the step where the event function vanishes.
 

@@ -214,7 +214,7 @@ def ending_at(E, j):
 
 # Called, not inlined (two call sites, once per point; inlined, each copied the start of
 # a march into the driver: seconds of compile).
-@jit()
+@jit(counted=False)
 def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, order):
     """Idle lanes take the next entries of ``todo`` in the ``order`` of
     :func:`_general_first` (their marches started as march() starts them), while there are
@@ -304,7 +304,7 @@ def _moved_on(ln, lane, rest_tol):
 
 # The lanes' rare per-lane paths, called, not inlined: inlined, each copied the march's
 # step logic into the driver at compile time.
-@jit()
+@jit(counted=False)
 def _sized_or_ended(ln, lane, budget, ends):
     """Where :func:`_guessed` did not size ``lane``'s step: its size by
     :func:`~sweep.kernels.stepsize.first_guess`, or, its budget spent, its Ending
@@ -319,7 +319,7 @@ def _sized_or_ended(ln, lane, budget, ends):
     return True
 
 
-@jit()
+@jit(counted=False)
 def _finished(ln, lane, K2, Q, rest_tol, e_tol, budget, ends):
     """Where :func:`_moved_on` did not move ``lane`` on: the rest of march()'s step
     (:func:`~sweep.kernels.march.after_stages_estimated`), its state stored, or, where its

@@ -198,7 +198,7 @@ def _stationary_u(u, v, c, upward):
 # --------------------------------------------------------------------------- one step
 
 # Not inlined: only points whose damping cap can bind come here (compile time).
-@jit()
+@jit(counted=False)
 def _capped(u, w, s, u1, w1, dr, fu0, fw0, fr0, p, K, c, n, max_steps):
     """The step ``s`` from (u, w) that ended at (u1, w1), retaken smaller while the damping
     cap judged at its end is exceeded: ``(u1, w1, dr, s, n)``, n the steps counter. ``fu0,
@@ -464,7 +464,7 @@ def _events(st, c, k, u1, w1, v1, s, n, K, K2, Q):
 
 # Not inlined: a few steps per point have events; inlining this rare path into every
 # driver multiplied the compile time (150 s against 20 s) for no speed.
-@jit()
+@jit(counted=False)
 def _located(st, c, k, u1, w1, v1, s, n, K, K2, Q):
     """:func:`_events` once the step's ends say an event may lie inside it."""
     phase, u_max = st.phase, st.u_max
@@ -496,7 +496,7 @@ def _located(st, c, k, u1, w1, v1, s, n, K, K2, Q):
     return phase, u_max, n, none
 
 
-@jit()
+@jit(counted=False)
 def _creep_rules(st, c, k, K, e_tol):
     """The creep rules inside R: ``(state, Ending)``, the state moved by a creep jump, the
     Ending's kind GOING unless the march ends here. (Not inlined: see :func:`_located`.)"""
@@ -578,7 +578,7 @@ def uneventful(phase, capped, u1, w1, v1, r1, energy_in_phase1, q_stuck, gtilde,
                                ubar, rest_tol))
 
 
-@jit()
+@jit(counted=False)
 def _settled(st, c, k, rest_tol):
     """The rest box and the energy rule at a step's end where one may apply: ``(state,
     Ending)``, the Ending's kind GOING where neither does."""

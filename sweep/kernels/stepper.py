@@ -132,7 +132,7 @@ def _step_with(f):
 #: The step compiled once and called, with the right-hand side called too: for the rare
 #: re-steps (event location, the damping cap's retaken steps), where inlining either would
 #: compile the seven stages' powers at every call site for no speed.
-rk_step = jit()(_step_with(rhs_called))
+rk_step = jit(counted=False)(_step_with(rhs_called))
 #: The step with its right-hand side inlined, itself inlined into its one caller, the
 #: march's step: 25-30% less time per step (KK, SHC; 162 -> 120 ns on one core, the stages'
 #: results no longer cross a call boundary) for about 3 s more of first compile.
@@ -197,7 +197,7 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec):
 
 
 # Called, not inlined: once per refill of the lanes, and each inlined copy cost compile time.
-@jit()
+@jit(counted=False)
 def vector_groups(LF, LI, S):
     """Bit ``first`` set for each group of :data:`~sweep.kernels.vmath.VECTOR` lanes
     ``first ..`` whose laws (rows of ``LF, LI``) all take
