@@ -193,8 +193,9 @@ def jit(entry: bool = False, counted: bool = True, **options):
     the arrays it is passed. Each array variable of a helper costs a call of
     ``NRT_incref`` and one of ``NRT_decref`` (on the lanes' borrowed views too, whose
     records are null), 30-50 a call of the lanes' per-point and per-event helpers, which
-    numba's reference-count pruning leaves where control flow branches: 100-150 ns less a
-    KK point (``benchmarks/step_cost.py``, 2026-12-05).
+    numba's reference-count pruning leaves where control flow branches: 100-230 ns less a
+    KK point (``benchmarks/step_cost.py``, 2026-12-05). An allocation in such a helper
+    fails its compile (numba types no array constructor without reference counts).
 
     Compile time: every dispatcher a kernel calls costs 0.1-0.3 s of its own (its optimised
     IR, which includes all it calls again), and every ``inline="always"`` call site costs
