@@ -22,9 +22,9 @@ from sweep.kernels.tableau import DORMAND_PRINCE_54
 from sweep.kernels.vmath import (VECTOR, exp4, log4, vadd, vdot, vgather, vload, vmul, vpack,
                                  vscatter, vstore)
 
-__all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "SCRATCH", "vector_groups", "stages_out",
-           "rk_stage", "stage_point", "rk_combine", "local_error", "dense_coefficients", "dense_eval",
-           "N_STAGES", "N_DENSE"]
+__all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "SCRATCH", "vector_groups",
+           "stages_out", "rk_stage", "stage_point", "rk_combine", "local_error",
+           "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
 
 _T = DORMAND_PRINCE_54
 _A = np.ascontiguousarray(_T.A)
