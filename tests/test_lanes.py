@@ -118,11 +118,12 @@ def test_array_calls_give_what_the_one_point_solve_gives(kw):
 
 
 def test_lanes_refuse_arrays_they_cannot_borrow():
-    # The march reads the arrays it touches every step through views without ownership,
-    # which assume C order: a strided one is refused when compiled, never misread.
+    # The march writes the Endings through a view without ownership, which assumes C
+    # order: a strided array is refused when compiled, never miswritten.
     import numba
     alpha, beta, gamma, gtilde = (x[:4] for x in _points())
     todo = np.arange(4, dtype=np.int64)
-    budget = np.repeat(np.full(4, DEFAULT_MAX_STEPS, np.int64), 2)[::2]
+    budget = np.full(4, DEFAULT_MAX_STEPS, np.int64)
+    ends = np.empty((4, 2 * N_ENDING))[:, ::2]
     with pytest.raises(numba.core.errors.TypingError, match="C-contiguous"):
-        _lanes(alpha, beta, gamma, gtilde, todo, np.full(4, 48.0), budget)
+        _march_lanes(alpha, beta, gamma, gtilde, todo, np.full(4, 48.0), budget, ends)

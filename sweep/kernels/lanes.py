@@ -78,7 +78,9 @@ if LANES % VECTOR:
 N_ENDING = 9
 # Columns of a lane's state floats (SF) and ints (SI): the State's fields and its policy's.
 _T, _R, _RC, _V, _E0, _QS, _UMAX, _LW, _LQ, _H, _RHO, _SMIN, _STEPS, _OMEGA = range(14)
-_PHASE, _N, _EP1, _GRADED, _CAPPED, _LOCAL = range(6)
+_PHASE, _N, _EP1, _GRADED, _CAPPED, _LOCAL, _BUDGET = range(7)
+# (_BUDGET: the march's step budget, copied when the lane takes its point: read at every
+# step through the lane's point, it was a load waiting on a load; 0.8 ns a KK step.)
 # Column of the creep constants (CR) that the in-place steps read alone: Creep.ubar.
 _UBAR = 4
 
@@ -92,7 +94,7 @@ class Lanes(NamedTuple):
     LI: np.ndarray
     CR: np.ndarray      # float64 (LANES, 7): creep constants (Creep's fields)
     SF: np.ndarray      # float64 (LANES, 14): state and policy floats (columns above)
-    SI: np.ndarray      # int64 (LANES, 6): state and policy ints and flags
+    SI: np.ndarray      # int64 (LANES, 7): state and policy ints and flags, step budget
     u: np.ndarray       # float64: the state's u and w, which the stages read
     w: np.ndarray
     h: np.ndarray       # float64: the step about to be taken
@@ -138,7 +140,7 @@ def _lanes():
     live[:] = False
     return Lanes(point, live, np.empty((LANES, LAW_COLUMNS[0])),
                  np.empty((LANES, LAW_COLUMNS[1]), np.int64),
-                 np.empty((LANES, 7)), np.empty((LANES, 14)), np.empty((LANES, 6), np.int64),
+                 np.empty((LANES, 7)), np.empty((LANES, 14)), np.empty((LANES, 7), np.int64),
                  np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((5, LANES)),
                  np.empty((LANES, N_STAGES, 3)), np.empty(SCRATCH * LANES))
 
@@ -215,10 +217,11 @@ def ending_at(E, j):
 # Called, not inlined (two call sites, once per point; inlined, each copied the start of
 # a march into the driver: seconds of compile).
 @jit(counted=False)
-def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, order):
+def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, order):
     """Idle lanes take the next entries of ``todo`` in the ``order`` of
-    :func:`_general_first` (their marches started as march() starts them), while there are
-    any; returns the next position in ``order``."""
+    :func:`_general_first` (their marches started as march() starts them, with their
+    ``steps`` and ``budget``), while there are any; returns the next position in
+    ``order``."""
     for lane in range(LANES):
         if ln.live[lane] or nxt >= todo.size:
             continue
@@ -230,6 +233,7 @@ def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, order):
         _put_creep(ln, lane, creep_constants(c))
         _put_state(ln, lane, st)
         ln.point[lane] = j
+        ln.SI[lane, _BUDGET] = budget[j]
         ln.live[lane] = True
         nxt += 1
     return nxt
@@ -262,11 +266,11 @@ def _any(live):
 
 
 @jit(inline="always")
-def _guessed(ln, lane, budget):
+def _guessed(ln, lane):
     """Where ``lane``'s policy is :func:`~sweep.kernels.stepsize.uncapped` and its budget
     not spent (most steps), its next step's size
     (:func:`~sweep.kernels.stepsize.uncapped_guess`) in ``ln.h`` and True; else False."""
-    if ln.SI[lane, _N] >= budget[ln.point[lane]]:
+    if ln.SI[lane, _N] >= ln.SI[lane, _BUDGET]:
         return False
     p = _policy_at(ln, lane)
     if not uncapped(p):
@@ -305,13 +309,13 @@ def _moved_on(ln, lane, rest_tol):
 # The lanes' rare per-lane paths, called, not inlined: inlined, each copied the march's
 # step logic into the driver at compile time.
 @jit(counted=False)
-def _sized_or_ended(ln, lane, budget, ends):
+def _sized_or_ended(ln, lane, ends):
     """Where :func:`_guessed` did not size ``lane``'s step: its size by
     :func:`~sweep.kernels.stepsize.first_guess`, or, its budget spent, its Ending
     (:func:`~sweep.kernels.march.out_of_budget`) stored and the lane idle. Returns whether
     it went idle."""
     st, c = _state(ln, lane), law_at(ln.LF, ln.LI, lane)
-    if st.n < budget[ln.point[lane]]:
+    if st.n < ln.SI[lane, _BUDGET]:
         ln.h[lane] = first_guess(st.u, st.v, st.p, c)
         return False
     _put_end(ends, ln.point[lane], out_of_budget(st, c))
@@ -320,7 +324,7 @@ def _sized_or_ended(ln, lane, budget, ends):
 
 
 @jit(counted=False)
-def _finished(ln, lane, K2, Q, rest_tol, e_tol, budget, ends):
+def _finished(ln, lane, K2, Q, rest_tol, e_tol, ends):
     """Where :func:`_moved_on` did not move ``lane`` on: the rest of march()'s step
     (:func:`~sweep.kernels.march.after_stages_estimated`), its state stored, or, where its
     march ended, its Ending stored and the lane idle. Returns whether it went idle."""
@@ -329,7 +333,7 @@ def _finished(ln, lane, K2, Q, rest_tol, e_tol, budget, ends):
     st, end = after_stages_estimated(
         _state(ln, lane), law_at(ln.LF, ln.LI, lane), _creep_at(ln, lane),
         ln.h[lane], y[0, lane], y[1, lane], y[2, lane], y[3, lane], y[4, lane],
-        ln.K[lane], K2, Q, rest_tol, e_tol, budget[ln.point[lane]])
+        ln.K[lane], K2, Q, rest_tol, e_tol, ln.SI[lane, _BUDGET])
     if end.kind == GOING:
         _put_state(ln, lane, st)
         return False
@@ -365,24 +369,24 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     _, K2_own, Q_own = scratch()
     b = _borrowed
     ln, K2, Q = _borrow(own), b(K2_own), b(Q_own)
-    budget, ends = b(budget), b(ends)     # the others are read once per point
+    ends = b(ends)     # the others are read once per point
     order = _general_first(alpha, beta, todo)
-    nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps, order)
+    nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps, budget, order)
     vec = vector_groups(ln.LF, ln.LI, ln.S)    # again whenever lanes take points
     while _any(ln.live):
         idle = False
         for lane in range(LANES):      # the step's size, after march()'s budget test
-            if ln.live[lane] and not _guessed(ln, lane, budget):
-                idle = _sized_or_ended(ln, lane, budget, ends) or idle
+            if ln.live[lane] and not _guessed(ln, lane):
+                idle = _sized_or_ended(ln, lane, ends) or idle
         if not idle:
             rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y, ln.S, vec)
             for lane in range(LANES):  # the rest of march()'s step
                 if ln.live[lane] and not _moved_on(ln, lane, rest_tol):
                     if vec >> (lane - lane % VECTOR) & 1:
                         stages_out(ln.K, ln.S, lane)
-                    idle = _finished(ln, lane, K2, Q, rest_tol, e_tol, budget, ends) or idle
+                    idle = _finished(ln, lane, K2, Q, rest_tol, e_tol, ends) or idle
         if idle:
-            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, order)
+            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, order)
             vec = vector_groups(ln.LF, ln.LI, ln.S)
     # The owners live until the borrowed views are done with.
     own.live[0] = K2_own[0, 0] == Q_own[0, 0]
