@@ -34,7 +34,7 @@ the group's stages, their combination and local error estimates go as vectors of
 lanes (:func:`sweep.kernels.contact.rhs_vector`): 19-31% more points a second on those
 laws (2026-12-05).
 
-Cost (one core, KK, ``python benchmarks/step_cost.py``): 22.5 ns a step (2026-12-05, 13:40
+Cost (one core, KK, ``python benchmarks/step_cost.py``): 21.2 ns a step (2026-12-05, 14:20
 UTC), 28 ns before the vector groups' stages stayed in their scratch and the rare
 per-lane paths were called (:func:`_finished`, :func:`_sized_or_ended`), 40 before the
 vector groups, 51 before the uneventful steps were moved in place, 48-53 ns on 2026-12-01
@@ -69,8 +69,10 @@ from sweep.kernels.vmath import VECTOR
 __all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
 
 #: Points marched at once. 8: the stages of eight lanes fill the core's out-of-order window
-#: (KK stages: 74 ns a step for one point, about 25-30 ns a point for eight). A multiple
-#: of four: general lanes take their powers four at a time (rk_step_lanes).
+#: (KK stages: 74 ns a step for one point, about 25-30 ns a point for eight, before the
+#: vector groups). 12 or 16 gave the laws' draws 2-10% more but the Sobol design 4% less
+#: (more lanes idle in refinement passes and blocks' tails; docs/speed/history.md). A
+#: multiple of four: general lanes take their powers four at a time (rk_step_lanes).
 LANES = 8
 if LANES % VECTOR:
     raise ImportError(f"LANES ({LANES}) must be a multiple of vmath.VECTOR ({VECTOR})")
@@ -318,9 +320,7 @@ def _sized_or_ended(ln, lane, ends):
     if st.n < ln.SI[lane, _BUDGET]:
         ln.h[lane] = first_guess(st.u, st.v, st.p, c)
         return False
-    _put_end(ends, ln.point[lane], out_of_budget(st, c))
-    ln.live[lane] = False
-    return True
+    return _retired(ln, lane, ends, out_of_budget(st, c))
 
 
 @jit(counted=False)
@@ -337,6 +337,13 @@ def _finished(ln, lane, K2, Q, rest_tol, e_tol, ends):
     if end.kind == GOING:
         _put_state(ln, lane, st)
         return False
+    return _retired(ln, lane, ends, end)
+
+
+@jit(inline="always")
+def _retired(ln, lane, ends, end):
+    """``lane``'s march over: its Ending in its point's row of ``ends``, the lane idle;
+    True (it went idle)."""
     _put_end(ends, ln.point[lane], end)
     ln.live[lane] = False
     return True

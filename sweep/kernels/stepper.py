@@ -153,10 +153,9 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec):
     start on entry; for the lanes of a vector group only the last there, the others in
     ``S`` until :func:`stages_out`), its ``(u_new, w_new, dr)`` in ``y[:3, l]`` and the
     step's local error estimates of w and q (:func:`local_error`) in ``y[3:5, l]``; the
-    number of lanes a
-    multiple of four (:func:`_general_stage`). ``S``: scratch, :data:`SCRATCH` times the
-    lanes; ``vec``: the lanes' :func:`vector_groups`, run on ``S`` since their laws last
-    changed.
+    number of lanes a multiple of four (:func:`_general_stage`). ``S``: scratch,
+    :data:`SCRATCH` times the lanes; ``vec``: the lanes' :func:`vector_groups`, run on
+    ``S`` since their laws last changed.
 
     Each stage is formed for every lane before the next: the lanes' chains of dependent
     operations (each stage waits on the power of u of the one before) overlap, where one

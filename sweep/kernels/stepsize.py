@@ -208,8 +208,9 @@ def needs_grading(alpha, beta):
 @jit(inline="always")
 def graded_step(u, v, h, rho, s_min):
     """Step for state ``(u, v)``: ``h`` away from u = 0, ``rho u/|v|`` (>= s_min) near it."""
-    # Selects, not branches: the lanes size eight steps in a row, and branches on the
-    # quotient waited on the division and were mispredicted near u = 0.
+    # The quotient formed before the tests: its choice against s_min compiles to a max, not
+    # a branch waiting on the division (the lanes size eight steps in a row; +1-2%,
+    # docs/speed/history.md). The test against h stays a branch, well predicted.
     av = abs(v)
     s = rho * u / av
     graded = s if s > s_min else s_min

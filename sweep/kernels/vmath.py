@@ -417,9 +417,14 @@ def vsqrt_where_equal(typingctx, k, value, x, b):
     return vector(k, value, x, b), codegen
 
 
-def _flat(arr, *indices):
-    return (isinstance(arr, types.Array) and arr.layout == "C" and arr.dtype == types.float64
-            and all(isinstance(t, types.Integer) for t in indices))
+def _require_flat(arr, *indices):
+    """Type check of the memory operations' arguments: a C-contiguous float64 array (read
+    through its data pointer, flat) and integer indices into it."""
+    if not (isinstance(arr, types.Array) and arr.layout == "C" and arr.dtype == types.float64
+            and all(isinstance(t, types.Integer) for t in indices)):
+        raise numba.core.errors.TypingError(
+            f"a C-contiguous float64 array and integer indices are needed, "
+            f"got {arr} and {', '.join(str(t) for t in indices)}")
 
 
 def _strided(context, builder, signature, args, count):
@@ -442,9 +447,7 @@ def _at(context, builder, arr, value, index, index_type):
 def vload(typingctx, arr, start):
     """The vector ``a.flat[start:start + VECTOR]`` of a C-contiguous float64 array, as one
     load (no bounds check)."""
-    if not _flat(arr, start):
-        raise numba.core.errors.TypingError(f"a C-contiguous float64 array and an index are "
-                                            f"needed, got {arr} and {start}")
+    _require_flat(arr, start)
 
     def codegen(context, builder, signature, args):
         return builder.load(_at(context, builder, arr, args[0], args[1], start), align=8)
@@ -455,9 +458,7 @@ def vload(typingctx, arr, start):
 def vstore(typingctx, arr, start, x):
     """``a.flat[start:start + VECTOR] = x`` for a C-contiguous float64 array, as one store
     (no bounds check)."""
-    if not _flat(arr, start):
-        raise numba.core.errors.TypingError(f"a C-contiguous float64 array and an index are "
-                                            f"needed, got {arr} and {start}")
+    _require_flat(arr, start)
     _operand(x)
 
     def codegen(context, builder, signature, args):
@@ -471,9 +472,7 @@ def vstore(typingctx, arr, start, x):
 def vscatter(typingctx, arr, start, stride, x):
     """``a.flat[start + k stride] = x[k]`` for a C-contiguous float64 array, element by
     element (no bounds check)."""
-    if not _flat(arr, start, stride):
-        raise numba.core.errors.TypingError(f"a C-contiguous float64 array and two indices "
-                                            f"are needed, got {arr}, {start}, {stride}")
+    _require_flat(arr, start, stride)
     _operand(x)
 
     def codegen(context, builder, signature, args):
@@ -491,9 +490,7 @@ def vgather(typingctx, arr, start, stride):
     """The vector ``(a.flat[start + k stride])``, k < VECTOR, of a C-contiguous float64
     array, element by element (no bounds check): elements stored one by one just before
     (a vector load of them would wait for the stores to complete)."""
-    if not _flat(arr, start, stride):
-        raise numba.core.errors.TypingError(f"a C-contiguous float64 array and two indices "
-                                            f"are needed, got {arr}, {start}, {stride}")
+    _require_flat(arr, start, stride)
 
     def codegen(context, builder, signature, args):
         data = context.make_array(arr)(context, builder, args[0]).data
@@ -507,11 +504,10 @@ def vdot(typingctx, arr, start, stride, coefficients):
     """``sum_j c_j a.flat[start + j stride : .. + VECTOR]`` over the float64
     ``coefficients`` c_j, summed from 0 in their order as ``s += c_j x_j`` is (the
     kernels' contraction included), for a C-contiguous float64 array."""
-    if not (_flat(arr, start, stride) and isinstance(coefficients, types.UniTuple)
-            and coefficients.dtype == types.float64):
-        raise numba.core.errors.TypingError(f"a C-contiguous float64 array, two indices and "
-                                            f"a tuple of float64 are needed, got {arr}, "
-                                            f"{start}, {stride}, {coefficients}")
+    _require_flat(arr, start, stride)
+    if not (isinstance(coefficients, types.UniTuple) and coefficients.dtype == types.float64):
+        raise numba.core.errors.TypingError(f"a tuple of float64 coefficients is needed, got "
+                                            f"{coefficients}")
 
     def codegen(context, builder, signature, args):
         total = ir.Constant(_VT, [0.0] * VECTOR)
