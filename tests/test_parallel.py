@@ -48,3 +48,77 @@ def test_workqueue_falls_back_to_serial_in_threads():
                           env=env, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert proc.stdout.strip().endswith("ok")
+
+
+# --- map_blocks' kept pool -------------------------------------------------------------
+
+import multiprocessing  # noqa: E402
+import threading  # noqa: E402
+import time  # noqa: E402
+
+import numba  # noqa: E402
+import pytest  # noqa: E402
+
+from sweep.kernels import _parallel  # noqa: E402
+
+
+def _blocks_seen(n, size, order):
+    seen = []
+    lock = threading.Lock()
+
+    def run(lo, hi):
+        with lock:
+            seen.append((lo, hi))
+    _parallel.map_blocks(run, order, size, n)
+    return sorted(seen)
+
+
+def test_map_blocks_runs_every_block_once_whatever_the_thread_count():
+    n, size = 1003, 100
+    expected = [(lo, min(n, lo + size)) for lo in range(0, n, size)]
+    before = numba.get_num_threads()
+    try:
+        for t in (numba.config.NUMBA_NUM_THREADS, 1, numba.config.NUMBA_NUM_THREADS):
+            numba.set_num_threads(t)
+            assert _blocks_seen(n, size, reversed(range(len(expected)))) == expected
+            assert _parallel._POOL[1] == t
+    finally:
+        numba.set_num_threads(before)
+
+
+def test_map_blocks_raises_the_first_error_once_no_block_still_runs():
+    started, lock = [], threading.Lock()
+
+    def run(lo, hi):
+        with lock:
+            started.append(lo)
+        if lo == 0:
+            raise ValueError("block 0")
+        time.sleep(0.01)
+    with pytest.raises(ValueError, match="block 0"):
+        _parallel.map_blocks(run, range(200), 1, 200)
+    count = len(started)
+    time.sleep(0.1)
+    # Blocks not started were cancelled; none starts after the call returned.
+    assert len(started) == count < 200
+
+
+def _child(queue):
+    queue.put(_blocks_seen(30, 10, range(3)))
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="fork start method")
+def test_map_blocks_in_a_forked_child_gets_its_own_pool():
+    _blocks_seen(30, 10, range(3))          # the parent's pool exists, its threads started
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.Queue()
+    proc = ctx.Process(target=_child, args=(queue,))
+    proc.start()
+    try:
+        # The inherited pool has no threads in the child: its blocks would never run.
+        assert queue.get(timeout=60) == [(0, 10), (10, 20), (20, 30)]
+    finally:
+        proc.join(timeout=10)
+        if proc.is_alive():
+            proc.kill()
+    assert proc.exitcode == 0

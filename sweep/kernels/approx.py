@@ -70,12 +70,17 @@ _COEF_ZERO = 9       # I(0), Q(0) (39), (40)
 _OK = np.int8(Status.OK)
 _INVALID = np.int8(Status.INVALID)
 #: Smallest chunk of a parallel call, against ~20 us of Python for a chunk's call: the
-#: first-order forms cost 3-30 ns a point (65,536 points: 0.2-2 ms), the second-order ones
-#: 1-4 us (quadrature or Chebyshev-Beta sums per point; 1,024 points: 1-4 ms). With one
-#: size for both, a 65,536-point chunk of a sweep ran its second-order forms on one core.
+#: first-order forms cost 3-30 ns a point (65,536 points: 0.2-2 ms) where the exponents
+#: stay, ~100 ns where they vary, the second-order ones 1-4 us (quadrature or Chebyshev-Beta
+#: sums per point; 1,024 points: 1-4 ms). With one size for all, a 65,536-point chunk of a
+#: sweep ran its second-order forms on one core.
 _CHUNK = 1 << 16
 _CHUNK_COSTLY = 1 << 10
 _COSTLY = (_ORD2_NUMINT, _ORD2_APPROX, _COEF_NUMINT, _COEF_APPROX)
+#: Points sampled to judge whether the exponents vary (:func:`_exponents_vary`): a
+#: scattered design's first-order forms ran on one core (0.10 s of ord1 a million Sobol
+#: points, on one core or two, 2026-12-05).
+_SAMPLES = 16
 #: Chunks per thread (a few, for balance where costs vary: ord2_numint by g~).
 _CHUNKS_PER_THREAD = 4
 _DEFAULT_N = 21
@@ -190,6 +195,15 @@ def _kernel(code, alpha, beta, gamma, gtilde, n, e, status, aux1, aux2):
             aux2[i] = x2 if good else math.nan
 
 
+def _exponents_vary(alpha, beta):
+    """Whether the exponents seem to change along the arrays (judged on
+    :data:`_SAMPLES` points spread over them): the first-order forms then recompute their
+    constants (Beta functions) at most points, ~100 ns each, and cost like the second-order
+    ones. Only the chunking depends on it, never a value."""
+    at = np.linspace(0, alpha.size - 1, min(_SAMPLES, alpha.size)).astype(np.intp)
+    return bool(np.any(alpha[at] != alpha[0]) or np.any(beta[at] != beta[0]))
+
+
 def _run(code, alpha, beta, gamma, gtilde, n, aux=True):
     size = alpha.size
     e = np.empty(size)
@@ -202,8 +216,8 @@ def _run(code, alpha, beta, gamma, gtilde, n, aux=True):
         _kernel(code, alpha[lo:hi], beta[lo:hi], gamma[lo:hi], gtilde[lo:hi], n, e[lo:hi],
                 status[lo:hi], a1, a2)
 
-    chunks = min(_CHUNKS_PER_THREAD * threads(),
-                 size // (_CHUNK_COSTLY if code in _COSTLY else _CHUNK))
+    costly = code in _COSTLY or _exponents_vary(alpha, beta)
+    chunks = min(_CHUNKS_PER_THREAD * threads(), size // (_CHUNK_COSTLY if costly else _CHUNK))
     if chunks > 1 and parallel_allowed():
         per = -(-size // chunks)
         map_blocks(run, range(chunks), per, size)
