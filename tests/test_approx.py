@@ -250,6 +250,20 @@ def test_parallel_serial_and_thread_count_identical():
             numba.set_num_threads(before)
 
 
+@pytest.mark.parametrize("size", [0, 1, 2])
+def test_tiny_arrays_with_fixed_or_varying_exponents(size):
+    """The chunking's look at the exponents (costly where they vary) takes any size."""
+    pts = _random_points(max(size, 1))
+    fixed = (np.full(size, 1.5), np.full(size, 1.5), pts[2][:size], pts[3][:size])
+    for method in ("ord1", "large_gtilde", "ord2_approx"):
+        for args in (fixed, tuple(p[:size] for p in pts)):
+            e, status = A.approx_cor(method, *args)
+            assert e.shape == status.shape == (size,)
+            for i in range(size):
+                assert float(sweep.cor(*(a[i] for a in args), method=method)) == e[i] \
+                    or np.isnan(e[i])
+
+
 def test_works_from_non_main_thread():
     pts = _random_points(3000, seed=6)
     expected, _ = A.approx_cor("ord2_approx", *pts)

@@ -200,6 +200,8 @@ def _exponents_vary(alpha, beta):
     :data:`_SAMPLES` points spread over them): the first-order forms then recompute their
     constants (Beta functions) at most points, ~100 ns each, and cost like the second-order
     ones. Only the chunking depends on it, never a value."""
+    if alpha.size < 2:
+        return False
     at = np.linspace(0, alpha.size - 1, min(_SAMPLES, alpha.size)).astype(np.intp)
     return bool(np.any(alpha[at] != alpha[0]) or np.any(beta[at] != beta[0]))
 
