@@ -226,3 +226,45 @@ def test_scatter_and_gather_put_and_take_each_element_at_its_stride():
     a, back = _scattered((1.0, 2.0, 3.0, 4.0), 5)
     assert list(a[3::5]) == [1.0, 2.0, 3.0, 4.0] and a.sum() == 10.0
     assert back == (1.0, 2.0, 3.0, 4.0)
+
+
+@numba.njit
+def _masks(x, y, ints):
+    """The mask operations over x, y by VECTOR elements: bit masks spread to rows of 0/1."""
+    n = x.size
+    out = np.zeros((9, n))
+    sel = np.empty((3, n))
+    for i in range(0, n, _N):
+        a, b = vmath.vload(x, i), vmath.vload(y, i)
+        masks = (vmath.vlt_bits(a, b), vmath.vle_bits(a, b), vmath.vgt_bits(a, b),
+                 vmath.vge_bits(a, b), vmath.veq_bits(a, b), vmath.vnan_bits(a),
+                 vmath.vle_bits(a, 0.0), vmath.ieq_bits(ints, i, 2),
+                 vmath.ilt_bits(ints, i, n + i))
+        for row in range(len(masks)):
+            for k in range(_N):
+                out[row, i + k] = masks[row] >> k & 1
+        vmath.vstore(sel[0], i, vmath.vselect_bits(masks[0], a, b))
+        vmath.vstore(sel[1], i, vmath.vabs(a))
+        vmath.vstore(sel[2], i, vmath.vdiv(a, b))
+    return out, sel
+
+
+def test_masks_are_pythons_comparisons_element_by_element():
+    rng = np.random.default_rng(7)
+    n = 4096
+    x = rng.normal(size=n)
+    y = np.where(rng.random(n) < 0.2, x, rng.normal(size=n))     # some equal pairs
+    x[::11], y[3::13], x[5::17] = np.nan, np.nan, -0.0
+    ints = rng.integers(0, 4, 2 * n)
+    got, sel = _masks(x, y, ints)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        want = [x < y, x <= y, x > y, x >= y, x == y, np.isnan(x), x <= 0.0,
+                ints[:n] == 2, ints[:n] < ints[n:]]
+        quotient = x / y
+    for row, ref in zip(got, want):
+        assert 0 < ref.sum() < n
+        assert np.array_equal(row, ref)
+    assert np.array_equal(sel[0], np.where(x < y, x, y), equal_nan=True)
+    assert np.array_equal(np.signbit(sel[1]), np.zeros(n, bool))
+    assert np.array_equal(sel[1], np.abs(x), equal_nan=True)
+    assert np.array_equal(sel[2], quotient, equal_nan=True)

@@ -10,18 +10,19 @@ stopping rules -- is the one-point march's own code (:func:`sweep.kernels.stepsi
 :func:`sweep.kernels.march.after_stages_estimated`), run per lane; only the step's local
 error estimates are formed with the stages, for all lanes (``rk_step_lanes``). Most
 steps need none of that code but their size and the state moved on
-(:func:`sweep.kernels.march.uneventful`): those lanes' fields are read and written in
-place (:func:`_guessed`, :func:`_moved_on`). A lane
-whose march has ended takes the next point (those with general exponents first, whose
-stages take their powers by vectors of lanes: :func:`_general_first`).
+(:func:`sweep.kernels.march.uneventful`): those are done for groups of four lanes as
+vectors, the lanes' fields read and written in place (:func:`_guessed_group`,
+:func:`_moved_on_group`; the State's fields are rows of the lanes). A lane whose march has
+ended takes the next point (those with general exponents first, whose stages take their
+powers by vectors of lanes: :func:`_general_first`).
 
 Per point the operations are exactly those of :func:`sweep.kernels.march.march`, in the same
 order: the Endings are bit-identical to it whatever the other lanes hold
 (``tests/test_lanes.py``).
 
 A lane's march between two steps is a :class:`~sweep.kernels.march.State`; it is kept in
-the rows of a few arrays (:class:`Lanes`) and read back into the named tuple for the steps
-that need the march's code.
+the columns of a few arrays (:class:`Lanes`), each field a row of the lanes, and read back
+into the named tuple for the steps that need the march's code.
 Inside the march those arrays, and the caller's, are borrowed views (:func:`_borrowed`):
 numba updates an array's reference count, an atomic operation, wherever an array variable
 is copied, at every inlined call level, and in the lanes' loop, where nothing waits on
@@ -55,16 +56,16 @@ from numba.core import types
 from numba.extending import intrinsic
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import (LAW_COLUMNS, general_exponents, gtilde_at, law_at, make_law,
-                                   put_law)
+from sweep.kernels.contact import LAW_COLUMNS, general_exponents, law_at, make_law, put_law
 from sweep.kernels.creep import Creep, creep_constants
 from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
-                                 carry_last_stage, compensated_sum, out_of_budget, scratch,
-                                 start, uneventful)
+                                 carry_last_stage, out_of_budget, scratch, start)
 from sweep.kernels.stepper import N_STAGES, SCRATCH, rk_step_lanes, stages_out, vector_groups
-from sweep.kernels.stepsize import (StepPolicy, first_guess, policy, uncapped,
-                                    uncapped_guess)
-from sweep.kernels.vmath import VECTOR
+from sweep.kernels.stepsize import StepPolicy, first_guess, policy
+from sweep.kernels.creep import ROUNDING_V
+from sweep.kernels.vmath import (VECTOR, ieq_bits, ilt_bits, vabs, vadd, vdiv, veq_bits,
+                                 vgather, vge_bits, vgt_bits, vle_bits, vload, vlt_bits, vmul,
+                                 vnan_bits, vselect_bits, vstore, vsub)
 
 __all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
 
@@ -78,12 +79,13 @@ if LANES % VECTOR:
     raise ImportError(f"LANES ({LANES}) must be a multiple of vmath.VECTOR ({VECTOR})")
 #: Columns of an Ending stored in a row (:func:`ending_at`).
 N_ENDING = 9
-# Columns of a lane's state floats (SF) and ints (SI): the State's fields and its policy's.
+# Rows of the lanes' state floats (SF) and ints (SI): the State's fields and its policy's,
+# each a row of the lanes, so that a group of lanes reads and writes a field as a vector.
 _T, _R, _RC, _V, _E0, _QS, _UMAX, _LW, _LQ, _H, _RHO, _SMIN, _STEPS, _OMEGA = range(14)
 _PHASE, _N, _EP1, _GRADED, _CAPPED, _LOCAL, _BUDGET = range(7)
 # (_BUDGET: the march's step budget, copied when the lane takes its point: read at every
 # step through the lane's point, it was a load waiting on a load; 0.8 ns a KK step.)
-# Column of the creep constants (CR) that the in-place steps read alone: Creep.ubar.
+# Row of the creep constants (CR) that the in-place steps read alone: Creep.ubar.
 _UBAR = 4
 
 
@@ -94,9 +96,9 @@ class Lanes(NamedTuple):
     live: np.ndarray    # bool: the lane marches a point
     LF: np.ndarray      # float64 and int64 (LANES, LAW_COLUMNS): laws (contact.put_law)
     LI: np.ndarray
-    CR: np.ndarray      # float64 (LANES, 7): creep constants (Creep's fields)
-    SF: np.ndarray      # float64 (LANES, 14): state and policy floats (columns above)
-    SI: np.ndarray      # int64 (LANES, 7): state and policy ints and flags, step budget
+    CR: np.ndarray      # float64 (7, LANES): creep constants (Creep's fields)
+    SF: np.ndarray      # float64 (14, LANES): state and policy floats (rows above)
+    SI: np.ndarray      # int64 (7, LANES): state and policy ints and flags, step budget
     u: np.ndarray       # float64: the state's u and w, which the stages read
     w: np.ndarray
     h: np.ndarray       # float64: the step about to be taken
@@ -142,7 +144,7 @@ def _lanes():
     live[:] = False
     return Lanes(point, live, np.empty((LANES, LAW_COLUMNS[0])),
                  np.empty((LANES, LAW_COLUMNS[1]), np.int64),
-                 np.empty((LANES, 7)), np.empty((LANES, 14)), np.empty((LANES, 7), np.int64),
+                 np.empty((7, LANES)), np.empty((14, LANES)), np.empty((7, LANES), np.int64),
                  np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((5, LANES)),
                  np.empty((LANES, N_STAGES, 3)), np.empty(SCRATCH * LANES))
 
@@ -151,18 +153,18 @@ def _lanes():
 def _policy_at(ln, lane):
     f = ln.SF
     n = ln.SI
-    return StepPolicy(f[lane, _H], f[lane, _RHO], f[lane, _SMIN], f[lane, _STEPS],
-                      n[lane, _GRADED] != 0, n[lane, _CAPPED] != 0, n[lane, _LOCAL] != 0,
-                      f[lane, _OMEGA])
+    return StepPolicy(f[_H, lane], f[_RHO, lane], f[_SMIN, lane], f[_STEPS, lane],
+                      n[_GRADED, lane] != 0, n[_CAPPED, lane] != 0, n[_LOCAL, lane] != 0,
+                      f[_OMEGA, lane])
 
 
 @jit(inline="always")
 def _state(ln, lane):
     f = ln.SF
     n = ln.SI
-    return State(f[lane, _T], ln.u[lane], ln.w[lane], f[lane, _R], f[lane, _RC], f[lane, _V],
-                 f[lane, _E0], f[lane, _QS], n[lane, _PHASE], f[lane, _UMAX], n[lane, _N],
-                 f[lane, _LW], f[lane, _LQ], _policy_at(ln, lane), n[lane, _EP1] != 0)
+    return State(f[_T, lane], ln.u[lane], ln.w[lane], f[_R, lane], f[_RC, lane], f[_V, lane],
+                 f[_E0, lane], f[_QS, lane], n[_PHASE, lane], f[_UMAX, lane], n[_N, lane],
+                 f[_LW, lane], f[_LQ, lane], _policy_at(ln, lane), n[_EP1, lane] != 0)
 
 
 @jit(inline="always")
@@ -171,15 +173,15 @@ def _put_state(ln, lane, st):
     n = ln.SI
     ln.u[lane] = st.u
     ln.w[lane] = st.w
-    f[lane, _T], f[lane, _R], f[lane, _RC], f[lane, _V] = st.t, st.r, st.rc, st.v
-    f[lane, _E0], f[lane, _QS], f[lane, _UMAX] = st.e0, st.q_stuck, st.u_max
-    f[lane, _LW], f[lane, _LQ] = st.lw, st.lq
+    f[_T, lane], f[_R, lane], f[_RC, lane], f[_V, lane] = st.t, st.r, st.rc, st.v
+    f[_E0, lane], f[_QS, lane], f[_UMAX, lane] = st.e0, st.q_stuck, st.u_max
+    f[_LW, lane], f[_LQ, lane] = st.lw, st.lq
     p = st.p
-    f[lane, _H], f[lane, _RHO], f[lane, _SMIN] = p.h, p.rho, p.s_min
-    f[lane, _STEPS], f[lane, _OMEGA] = p.steps, p.omega
-    n[lane, _PHASE], n[lane, _N], n[lane, _EP1] = (st.phase, st.n,
+    f[_H, lane], f[_RHO, lane], f[_SMIN, lane] = p.h, p.rho, p.s_min
+    f[_STEPS, lane], f[_OMEGA, lane] = p.steps, p.omega
+    n[_PHASE, lane], n[_N, lane], n[_EP1, lane] = (st.phase, st.n,
                                                    1 if st.energy_in_phase1 else 0)
-    n[lane, _GRADED], n[lane, _CAPPED], n[lane, _LOCAL] = (1 if p.graded else 0,
+    n[_GRADED, lane], n[_CAPPED, lane], n[_LOCAL, lane] = (1 if p.graded else 0,
                                                            1 if p.capped else 0,
                                                            1 if p.local else 0)
 
@@ -187,20 +189,15 @@ def _put_state(ln, lane, st):
 @jit(inline="always")
 def _put_creep(ln, lane, k):
     C = ln.CR
-    C[lane, 0], C[lane, 1], C[lane, 2], C[lane, 3] = k.kappa, k.p, k.u_c, k.f_uc
-    C[lane, _UBAR], C[lane, 5], C[lane, 6] = k.ubar, k.u_jump, k.u_t
-
-
-@jit(inline="always")
-def _ubar_at(ln, lane):
-    return ln.CR[lane, _UBAR]
+    C[0, lane], C[1, lane], C[2, lane], C[3, lane] = k.kappa, k.p, k.u_c, k.f_uc
+    C[_UBAR, lane], C[5, lane], C[6, lane] = k.ubar, k.u_jump, k.u_t
 
 
 @jit(inline="always")
 def _creep_at(ln, lane):
     C = ln.CR
-    return Creep(C[lane, 0], C[lane, 1], C[lane, 2], C[lane, 3], _ubar_at(ln, lane),
-                 C[lane, 5], C[lane, 6])
+    return Creep(C[0, lane], C[1, lane], C[2, lane], C[3, lane], C[_UBAR, lane],
+                 C[5, lane], C[6, lane])
 
 
 @jit(inline="always")
@@ -235,7 +232,7 @@ def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, order):
         _put_creep(ln, lane, creep_constants(c))
         _put_state(ln, lane, st)
         ln.point[lane] = j
-        ln.SI[lane, _BUDGET] = budget[j]
+        ln.SI[_BUDGET, lane] = budget[j]
         ln.live[lane] = True
         nxt += 1
     return nxt
@@ -267,57 +264,129 @@ def _any(live):
     return False
 
 
-@jit(inline="always")
-def _guessed(ln, lane):
-    """Where ``lane``'s policy is :func:`~sweep.kernels.stepsize.uncapped` and its budget
-    not spent (most steps), its next step's size
-    (:func:`~sweep.kernels.stepsize.uncapped_guess`) in ``ln.h`` and True; else False."""
-    if ln.SI[lane, _N] >= ln.SI[lane, _BUDGET]:
-        return False
-    p = _policy_at(ln, lane)
-    if not uncapped(p):
-        return False
-    ln.h[lane] = uncapped_guess(ln.u[lane], ln.SF[lane, _V], p)
-    return True
+_ALL = (1 << VECTOR) - 1
 
 
 @jit(inline="always")
-def _moved_on(ln, lane, rest_tol):
-    """Where the step just taken by ``lane`` is :func:`~sweep.kernels.march.uneventful`
-    (most steps), its state moved on in place, as
-    :func:`~sweep.kernels.march.after_stages_estimated` moves it, and True; else False,
-    the lane's state untouched. Read and written back whole, the State's 15 fields and its
-    policy's 8 took a fifth of a KK step (51 against 40 ns, ``benchmarks/step_cost.py``)."""
-    f = ln.SF
-    n = ln.SI
-    y = ln.y
-    u1, w1, v1 = y[0, lane], y[1, lane], ln.K[lane, N_STAGES - 1, 0]
-    r1, rc1 = compensated_sum(f[lane, _R], f[lane, _RC], y[2, lane])
-    if not uneventful(n[lane, _PHASE], n[lane, _CAPPED] != 0, u1, w1, v1, r1,
-                      n[lane, _EP1] != 0, f[lane, _QS], gtilde_at(ln.LF, lane),
-                      _ubar_at(ln, lane), rest_tol):
-        return False
-    ln.u[lane], ln.w[lane] = u1, w1
-    f[lane, _T] = f[lane, _T] + ln.h[lane]
-    f[lane, _R], f[lane, _RC], f[lane, _V] = r1, rc1, v1
-    f[lane, _LW] = f[lane, _LW] + abs(y[3, lane])
-    f[lane, _LQ] = f[lane, _LQ] + abs(y[4, lane])
-    n[lane, _N] += 1
-    # ln.K[lane] is a view of a borrowed array: it costs no count.
-    carry_last_stage(ln.K[lane])
-    return True
+def _live_bits(ln, first):
+    """Bit k set where lane ``first + k`` marches a point."""
+    bits = 0
+    for k in range(VECTOR):
+        if ln.live[first + k]:
+            bits |= 1 << k
+    return bits
+
+
+@jit(inline="always")
+def _guessed_group(ln, first):
+    """The next step's size (:func:`~sweep.kernels.stepsize.uncapped_guess`) in ``ln.h``
+    for the live lanes of the :data:`~sweep.kernels.vmath.VECTOR` lanes ``first ..`` whose
+    policy is :func:`~sweep.kernels.stepsize.uncapped` and budget not spent (most steps),
+    as vectors, whatever their laws (the size reads only the policy); returns the bits of
+    the live lanes it did not size. Lane by lane, the sizes took 17% of the lanes' loop
+    (``perf``, 2026-12-05)."""
+    n = LANES
+    live = _live_bits(ln, first)
+    f, i = ln.SF, ln.SI
+    sized = live & ilt_bits(i, _N * n + first, _BUDGET * n + first) \
+        & ieq_bits(i, _CAPPED * n + first, 0) & ieq_bits(i, _LOCAL * n + first, 0)
+    h = vload(f, _H * n + first)
+    # stepsize.graded_step's operations, in its order.
+    rho, u = vload(f, _RHO * n + first), vload(ln.u, first)
+    av = vabs(vload(f, _V * n + first))
+    s = vdiv(vmul(rho, u), av)
+    s_min = vload(f, _SMIN * n + first)
+    graded = vselect_bits(vge_bits(vmul(rho, u), vmul(h, av)), h,
+                          vselect_bits(vgt_bits(s, s_min), s, s_min))
+    guess = vselect_bits(_ALL & ~ieq_bits(i, _GRADED * n + first, 0), graded, h)
+    vstore(ln.h, first, vselect_bits(sized, guess, vload(ln.h, first)))
+    return live & ~sized
+
+
+@jit(inline="always")
+def _eventful_bits(ln, first, u1, w1, v1, r1, rest_tol):
+    """Bits of the lanes ``first ..`` whose step, ended at ``(u1, w1, v1, r1)`` (vectors),
+    :func:`~sweep.kernels.march.uneventful` does not call uneventful, or whose state holds
+    a NaN (their comparisons: the lane takes the whole step's path, which is right for
+    every step)."""
+    n = LANES
+    i = ln.SI
+    p1 = ieq_bits(i, _PHASE * n + first, 1)
+    p2 = ieq_bits(i, _PHASE * n + first, 2)
+    p3 = ieq_bits(i, _PHASE * n + first, 3)
+    capped = _ALL & ~ieq_bits(i, _CAPPED * n + first, 0)
+    ubar = vload(ln.CR, _UBAR * n + first)
+    event = (p1 & vle_bits(v1, vmul(ROUNDING_V, vabs(w1))) | p2 & (
+        vlt_bits(u1, ubar) | veq_bits(ubar, 0.0) & vle_bits(u1, 0.0))
+        | p3 & (vle_bits(u1, 0.0) | vge_bits(v1, 0.0)))
+    later = _ALL & ~p1
+    creep = (later | capped) & vge_bits(vadd(v1, w1), 0.0)
+    loaded = vgt_bits(vgather(ln.LF, first * ln.LF.shape[1] + 3, ln.LF.shape[1]), 0.0)
+    rest = vlt_bits(vabs(vsub(u1, ubar)), rest_tol) & vlt_bits(vabs(v1), rest_tol)
+    spent = (later | _ALL & ~ieq_bits(i, _EP1 * n + first, 0)) & vgt_bits(
+        vadd(vmul(v1, vsub(w1, v1)), r1), vload(ln.SF, _QS * n + first))
+    nan = vnan_bits(u1) | vnan_bits(w1) | vnan_bits(v1) | vnan_bits(r1)
+    return (capped | _ALL & ~(p1 | p2 | p3) | event | creep | loaded & (rest | spent) | nan)
+
+
+@jit(inline="always")
+def _moved_on_group(ln, first, rest_tol, vector):
+    """Where the step just taken by a live lane of the :data:`~sweep.kernels.vmath.VECTOR`
+    lanes ``first ..`` is :func:`~sweep.kernels.march.uneventful` (most steps), its state
+    moved on in place, as :func:`~sweep.kernels.march.after_stages_estimated` moves it, as
+    vectors (``vector``: their stages are in ``ln.S``, :func:`rk_step_lanes`); returns the
+    bits of the live lanes it did not move on, their states untouched. Read and written
+    back whole, the State's 15 fields and its policy's 8 took a fifth of a KK step (51
+    against 40 ns, ``benchmarks/step_cost.py``); lane by lane in place, 27% of the lanes'
+    loop (``perf``, 2026-12-05)."""
+    n = LANES
+    live = _live_bits(ln, first)
+    f, y = ln.SF, ln.y
+    u1, w1 = vload(y, first), vload(y, n + first)
+    last = 3 * (N_STAGES - 1)
+    v1 = (vload(ln.S, last * n + first) if vector else
+          vgather(ln.K, first * 3 * N_STAGES + last, 3 * N_STAGES))
+    # march.compensated_sum's operations.
+    r, rc = vload(f, _R * n + first), vload(f, _RC * n + first)
+    d = vsub(vload(y, 2 * n + first), rc)
+    r1 = vadd(r, d)
+    moved = live & ~_eventful_bits(ln, first, u1, w1, v1, r1, rest_tol)
+    if moved == 0:
+        return live
+    vstore(ln.u, first, vselect_bits(moved, u1, vload(ln.u, first)))
+    vstore(ln.w, first, vselect_bits(moved, w1, vload(ln.w, first)))
+    _vput(f, _T * n + first, moved, vadd(vload(f, _T * n + first), vload(ln.h, first)))
+    _vput(f, _R * n + first, moved, r1)
+    _vput(f, _RC * n + first, moved, vsub(vsub(r1, r), d))
+    _vput(f, _V * n + first, moved, v1)
+    _vput(f, _LW * n + first, moved, vadd(vload(f, _LW * n + first),
+                                           vabs(vload(y, 3 * n + first))))
+    _vput(f, _LQ * n + first, moved, vadd(vload(f, _LQ * n + first),
+                                           vabs(vload(y, 4 * n + first))))
+    for k in range(VECTOR):
+        if moved >> k & 1:
+            ln.SI[_N, first + k] += 1
+            # ln.K[lane] is a view of a borrowed array: it costs no count.
+            carry_last_stage(ln.K[first + k])
+    return live & ~moved
+
+
+@jit(inline="always")
+def _vput(a, at, bits, x):
+    """``a.flat[at + k] = x[k]`` where bit k of ``bits`` is set."""
+    vstore(a, at, vselect_bits(bits, x, vload(a, at)))
 
 
 # The lanes' rare per-lane paths, called, not inlined: inlined, each copied the march's
 # step logic into the driver at compile time.
 @jit(counted=False)
 def _sized_or_ended(ln, lane, ends):
-    """Where :func:`_guessed` did not size ``lane``'s step: its size by
+    """Where :func:`_guessed_group` did not size ``lane``'s step: its size by
     :func:`~sweep.kernels.stepsize.first_guess`, or, its budget spent, its Ending
     (:func:`~sweep.kernels.march.out_of_budget`) stored and the lane idle. Returns whether
     it went idle."""
     st, c = _state(ln, lane), law_at(ln.LF, ln.LI, lane)
-    if st.n < ln.SI[lane, _BUDGET]:
+    if st.n < ln.SI[_BUDGET, lane]:
         ln.h[lane] = first_guess(st.u, st.v, st.p, c)
         return False
     return _retired(ln, lane, ends, out_of_budget(st, c))
@@ -325,7 +394,7 @@ def _sized_or_ended(ln, lane, ends):
 
 @jit(counted=False)
 def _finished(ln, lane, K2, Q, rest_tol, e_tol, ends):
-    """Where :func:`_moved_on` did not move ``lane`` on: the rest of march()'s step
+    """Where :func:`_moved_on_group` did not move ``lane`` on: the rest of march()'s step
     (:func:`~sweep.kernels.march.after_stages_estimated`), its state stored, or, where its
     march ended, its Ending stored and the lane idle. Returns whether it went idle."""
     y = ln.y
@@ -333,7 +402,7 @@ def _finished(ln, lane, K2, Q, rest_tol, e_tol, ends):
     st, end = after_stages_estimated(
         _state(ln, lane), law_at(ln.LF, ln.LI, lane), _creep_at(ln, lane),
         ln.h[lane], y[0, lane], y[1, lane], y[2, lane], y[3, lane], y[4, lane],
-        ln.K[lane], K2, Q, rest_tol, e_tol, ln.SI[lane, _BUDGET])
+        ln.K[lane], K2, Q, rest_tol, e_tol, ln.SI[_BUDGET, lane])
     if end.kind == GOING:
         _put_state(ln, lane, st)
         return False
@@ -382,16 +451,21 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     vec = vector_groups(ln.LF, ln.LI, ln.S)    # again whenever lanes take points
     while _any(ln.live):
         idle = False
-        for lane in range(LANES):      # the step's size, after march()'s budget test
-            if ln.live[lane] and not _guessed(ln, lane):
-                idle = _sized_or_ended(ln, lane, ends) or idle
+        for first in range(0, LANES, VECTOR):  # the step's size, after march()'s budget test
+            left = _guessed_group(ln, first)
+            for k in range(VECTOR):
+                if left >> k & 1:
+                    idle = _sized_or_ended(ln, first + k, ends) or idle
         if not idle:
             rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y, ln.S, vec)
-            for lane in range(LANES):  # the rest of march()'s step
-                if ln.live[lane] and not _moved_on(ln, lane, rest_tol):
-                    if vec >> (lane - lane % VECTOR) & 1:
-                        stages_out(ln.K, ln.S, lane)
-                    idle = _finished(ln, lane, K2, Q, rest_tol, e_tol, ends) or idle
+            for first in range(0, LANES, VECTOR):  # the rest of march()'s step
+                vector = vec >> first & 1 != 0
+                left = _moved_on_group(ln, first, rest_tol, vector)
+                for k in range(VECTOR):
+                    if left >> k & 1:
+                        if vector:
+                            stages_out(ln.K, ln.S, first + k)
+                        idle = _finished(ln, first + k, K2, Q, rest_tol, e_tol, ends) or idle
         if idle:
             nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, order)
             vec = vector_groups(ln.LF, ln.LI, ln.S)

@@ -120,7 +120,8 @@ def carry_last_stage(K):
 def compensated_sum(r, rc, dr):
     """``r + dr`` by Kahan's compensated summation, ``rc`` the compensation carried:
     ``(sum, its compensation)``. q's rounding stays at eps instead of growing with the
-    number of steps, which matters where e = sqrt(1 - 2 q) is small."""
+    number of steps, which matters where e = sqrt(1 - 2 q) is small. (The multi-point
+    driver's lanes take the same operations as vectors: ``lanes._moved_on_group``.)"""
     y = dr - rc
     r1 = r + y
     return r1, (r1 - r) - y
@@ -570,8 +571,9 @@ def uneventful(phase, capped, u1, w1, v1, r1, energy_in_phase1, q_stuck, gtilde,
     the state moved on: no damping cap (``capped``), no event inside it, no rule at its end
     (``gtilde``, ``ubar``: the law's load and static compression; the state's other fields
     as in :class:`State`). Most steps are; the multi-point driver moves those itself
-    (:mod:`sweep.kernels.lanes`). The law comes as its one number used: building its tuple
-    here cost compile time in that driver."""
+    (:mod:`sweep.kernels.lanes`), judging them as vectors of lanes with these tests'
+    operations (``lanes._eventful_bits``; ``tests/test_lanes.py`` holds the two to the same
+    Endings, bit for bit). The law comes as its one number used."""
     return not (capped or _may_have_event(phase, u1, v1, w1, ubar)
                 or _creep_rules_apply(phase, capped, v1, w1)
                 or _may_settle(u1, w1, r1, v1, phase, energy_in_phase1, q_stuck, gtilde,

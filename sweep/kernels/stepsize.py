@@ -207,10 +207,12 @@ def needs_grading(alpha, beta):
 
 @jit(inline="always")
 def graded_step(u, v, h, rho, s_min):
-    """Step for state ``(u, v)``: ``h`` away from u = 0, ``rho u/|v|`` (>= s_min) near it."""
+    """Step for state ``(u, v)``: ``h`` away from u = 0, ``rho u/|v|`` (>= s_min) near it.
+    (The multi-point driver sizes its lanes' steps by the same operations as vectors:
+    ``lanes._guessed_group``.)"""
     # The quotient formed before the tests: its choice against s_min compiles to a max, not
-    # a branch waiting on the division (the lanes size eight steps in a row; +1-2%,
-    # docs/speed/history.md). The test against h stays a branch, well predicted.
+    # a branch waiting on the division (+1-2% when the lanes still sized their steps one
+    # by one, docs/speed/history.md). The test against h stays a branch, well predicted.
     av = abs(v)
     s = rho * u / av
     graded = s if s > s_min else s_min

@@ -56,9 +56,11 @@ from numba.extending import intrinsic, register_model
 from sweep.kernels._jit import jit
 
 __all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log4", "exp4", "expm1_4", "sqrt_div4", "HAS",
-           "VECTOR", "Vector", "vector", "vpack", "vtuple", "vadd", "vsub", "vmul", "vsqrt",
-           "vwhere_positive", "vwhere_nonnegative", "vwhere_equal", "vsqrt_where_equal",
-           "vload", "vstore", "vscatter", "vgather", "vdot"]
+           "VECTOR", "Vector", "vector", "vpack", "vtuple", "vadd", "vsub", "vmul", "vdiv",
+           "vsqrt", "vabs", "vwhere_positive", "vwhere_nonnegative", "vwhere_equal",
+           "vsqrt_where_equal", "vlt_bits", "vle_bits", "vgt_bits", "vge_bits", "veq_bits",
+           "vnan_bits", "vselect_bits", "ieq_bits", "ilt_bits", "vload", "vstore", "vscatter",
+           "vgather", "vdot"]
 
 # libmvec's variants, in order of preference: (CPU feature, name letter of the x86_64
 # vector ABI, doubles per vector). AVX2 before AVX-512: on the AMD EPYC (Zen 4) where it was
@@ -322,8 +324,119 @@ def _binary(operation):
     return of
 
 
-#: ``x + y``, ``x - y``, ``x * y`` element by element.
-vadd, vsub, vmul = _binary("fadd"), _binary("fsub"), _binary("fmul")
+#: ``x + y``, ``x - y``, ``x * y``, ``x / y`` element by element.
+vadd, vsub, vmul, vdiv = _binary("fadd"), _binary("fsub"), _binary("fmul"), _binary("fdiv")
+
+
+@intrinsic
+def vabs(typingctx, x):
+    """``abs`` of each element."""
+    _operand(x)
+
+    def codegen(context, builder, signature, args):
+        v = _vector(builder, x, args[0])
+        fabs = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(_VT, [_VT]), f"llvm.fabs.v{VECTOR}f64")
+        return builder.call(fabs, [v])
+    return vector(x), codegen
+
+
+def _bits(builder, test):
+    """The int64 whose bit k is element k of a <VECTOR x i1>."""
+    return builder.zext(builder.bitcast(test, ir.IntType(VECTOR)), ir.IntType(64))
+
+
+def _compare(predicate):
+    @intrinsic
+    def bits(typingctx, x, y):
+        _operand(x)
+        _operand(y)
+
+        def codegen(context, builder, signature, args):
+            xv, yv = (_vector(builder, t, v) for t, v in zip(signature.args, args))
+            return _bits(builder, builder.fcmp_ordered(predicate, xv, yv))
+        return types.int64(x, y), codegen
+    return bits
+
+
+#: Bit k set where ``x[k] < y[k]`` (``<=``, ``>``, ``>=``, ``==``): Python's comparisons of
+#: floats, False where an element is NaN, as int64 bit masks of the elements.
+vlt_bits, vle_bits, vgt_bits = _compare("<"), _compare("<="), _compare(">")
+vge_bits, veq_bits = _compare(">="), _compare("==")
+
+
+@intrinsic
+def vnan_bits(typingctx, x):
+    """Bit k set where element k is NaN."""
+    _operand(x)
+
+    def codegen(context, builder, signature, args):
+        v = _vector(builder, x, args[0])
+        return _bits(builder, builder.fcmp_unordered("uno", v, v))
+    return types.int64(x), codegen
+
+
+@intrinsic
+def vselect_bits(typingctx, bits, a, b):
+    """``a[k] if bit k of bits else b[k]`` element by element (``bits`` an integer)."""
+    if not isinstance(bits, types.Integer):
+        raise numba.core.errors.TypingError(f"integer bits are needed, got {bits}")
+    _operand(a)
+    _operand(b)
+
+    def codegen(context, builder, signature, args):
+        test = builder.bitcast(builder.trunc(context.cast(builder, args[0], bits, types.int64),
+                                             ir.IntType(VECTOR)), ir.VectorType(ir.IntType(1),
+                                                                                VECTOR))
+        av, bv = (_vector(builder, t, v) for t, v in zip(signature.args[1:], args[1:]))
+        return builder.select(test, av, bv)
+    return vector(bits, a, b), codegen
+
+
+def _int_row(arr, *indices):
+    """Type check of the integer comparisons' arguments: a C-contiguous int64 array and
+    integer indices into it (flat)."""
+    if not (isinstance(arr, types.Array) and arr.layout == "C" and arr.dtype == types.int64
+            and all(isinstance(t, types.Integer) for t in indices)):
+        raise numba.core.errors.TypingError(
+            f"a C-contiguous int64 array and integer indices are needed, "
+            f"got {arr} and {', '.join(str(t) for t in indices)}")
+
+
+_IVT = ir.VectorType(ir.IntType(64), VECTOR)
+
+
+def _int_load(context, builder, arr, value, index, index_type):
+    data = context.make_array(arr)(context, builder, value).data
+    ptr = builder.gep(data, [context.cast(builder, index, index_type, types.intp)])
+    return builder.load(builder.bitcast(ptr, _IVT.as_pointer()), align=8)
+
+
+@intrinsic
+def ieq_bits(typingctx, arr, start, value):
+    """Bit k set where ``a.flat[start + k] == value``, k < VECTOR, for a C-contiguous int64
+    array (one vector load, no bounds check)."""
+    _int_row(arr, start, value)
+
+    def codegen(context, builder, signature, args):
+        x = _int_load(context, builder, arr, args[0], args[1], start)
+        v = context.cast(builder, args[2], value, types.int64)
+        return _bits(builder, builder.icmp_signed("==", x, _pack(builder, _IVT,
+                                                                   [v] * VECTOR)))
+    return types.int64(arr, start, value), codegen
+
+
+@intrinsic
+def ilt_bits(typingctx, arr, a, b):
+    """Bit k set where ``a.flat[a + k] < a.flat[b + k]``, k < VECTOR, for a C-contiguous
+    int64 array (two vector loads, no bounds check)."""
+    _int_row(arr, a, b)
+
+    def codegen(context, builder, signature, args):
+        x = _int_load(context, builder, arr, args[0], args[1], a)
+        y = _int_load(context, builder, arr, args[0], args[2], b)
+        return _bits(builder, builder.icmp_signed("<", x, y))
+    return types.int64(arr, a, b), codegen
 
 
 def _sqrt(builder, v):
