@@ -89,7 +89,7 @@ def all_lanes(n, gamma, gtilde):
     vec = vector_groups(LF, LI, S)
     acc = 0.0
     for _ in range(n // LANES):
-        rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec)
+        rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec, (1 << LANES) - 1)
         for l in range(LANES):
             u[l], w[l] = y[0, l], y[1, l]
             K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = K[l, 6, 0], K[l, 6, 1], K[l, 6, 2]

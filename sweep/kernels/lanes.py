@@ -35,13 +35,20 @@ the group's stages, their combination and local error estimates go as vectors of
 lanes (:func:`sweep.kernels.contact.rhs_vector`): 19-31% more points a second on those
 laws (2026-12-05).
 
-Cost (one core, KK, ``python benchmarks/step_cost.py``): 21.2 ns a step (2026-12-05, 14:20
-UTC), 28 ns before the vector groups' stages stayed in their scratch and the rare
-per-lane paths were called (:func:`_finished`, :func:`_sized_or_ended`), 40 before the
-vector groups, 51 before the uneventful steps were moved in place, 48-53 ns on 2026-12-01
-(against 78 for one point's march then); the stages, their combination and errors alone
-take 16 ns of it (``benchmarks/lanes.py``). Its first compile, the called paths
-included, takes about 4 s of the first ``sweep.cor()``'s 12-13 s.
+A vector group's lanes carry their first stage (first-same-as-last) in the scratch of
+:func:`~sweep.kernels.stepper.rk_step_lanes`, not in ``K``: only the lanes whose step took
+the march's whole path, took a new point, or joined a vector group take theirs from ``K``
+(``fresh`` in :func:`march_lanes`), and a group that stops being one writes its lanes'
+back (:func:`_regrouped`).
+
+Cost (one core, KK, ``python benchmarks/step_cost.py``): 18.2-18.5 ns a step (2026-12-05,
+15:45 UTC), 19.5-20 before the first stages were carried in the scratch, 21.2 before the
+moves and sizes went as vectors, 28 ns before the vector groups' stages stayed in their
+scratch and the rare per-lane paths were called (:func:`_finished`,
+:func:`_sized_or_ended`), 40 before the vector groups, 51 before the uneventful steps were
+moved in place, 48-53 ns on 2026-12-01 (against 78 for one point's march then); the stages,
+their combination and errors alone take 16 ns of it (``benchmarks/lanes.py``). Its first
+compile, the called paths included, takes about 4 s of the first ``sweep.cor()``'s 12-13 s.
 
 Owns: the multi-point driver and the layout of its lanes. May import: contact, creep,
 stepper, stepsize, march, vmath.
@@ -60,7 +67,8 @@ from sweep.kernels.contact import LAW_COLUMNS, general_exponents, law_at, make_l
 from sweep.kernels.creep import Creep, creep_constants
 from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
                                  carry_last_stage, out_of_budget, scratch, start)
-from sweep.kernels.stepper import N_STAGES, SCRATCH, rk_step_lanes, stages_out, vector_groups
+from sweep.kernels.stepper import (N_STAGES, SCRATCH, carry_in_scratch, rk_step_lanes,
+                                   stages_out, vector_groups)
 from sweep.kernels.stepsize import StepPolicy, first_guess, policy
 from sweep.kernels.creep import ROUNDING_V
 from sweep.kernels.vmath import (VECTOR, ieq_bits, ilt_bits, vabs, vadd, vdiv, veq_bits,
@@ -265,6 +273,7 @@ def _any(live):
 
 
 _ALL = (1 << VECTOR) - 1
+_EVERY_LANE = (1 << LANES) - 1
 
 
 @jit(inline="always")
@@ -275,6 +284,40 @@ def _live_bits(ln, first):
         if ln.live[first + k]:
             bits |= 1 << k
     return bits
+
+
+@jit(inline="always")
+def _live_lanes(ln):
+    """Bit l set where lane l marches a point."""
+    bits = 0
+    for lane in range(LANES):
+        if ln.live[lane]:
+            bits |= 1 << lane
+    return bits
+
+
+@jit(inline="always")
+def _lanes_of(groups):
+    """Bits of the lanes of the groups whose first lane's bit is set in ``groups``."""
+    bits = 0
+    for first in range(0, LANES, VECTOR):
+        if groups >> first & 1:
+            bits |= _ALL << first
+    return bits
+
+
+@jit(inline="always")
+def _regrouped(ln, vec, fresh):
+    """The :func:`~sweep.kernels.stepper.vector_groups` of the lanes after they took
+    points (``vec`` before) and the lanes whose first stage is in K (``fresh`` before):
+    the lanes of a group that turned vector are (their steps carried it in K so far); those
+    of a group that did not stay vector get theirs from the scratch."""
+    now = vector_groups(ln.LF, ln.LI, ln.S)
+    out = _lanes_of(vec & ~now) & ~fresh
+    for lane in range(LANES):
+        if out >> lane & 1:
+            stages_out(ln.K, ln.S, lane)
+    return now, fresh | _lanes_of(now & ~vec) | out
 
 
 @jit(inline="always")
@@ -363,11 +406,14 @@ def _moved_on_group(ln, first, rest_tol, vector):
                                            vabs(vload(y, 3 * n + first))))
     _vput(f, _LQ * n + first, moved, vadd(vload(f, _LQ * n + first),
                                            vabs(vload(y, 4 * n + first))))
+    if vector:
+        carry_in_scratch(ln.S, first, moved)
     for k in range(VECTOR):
         if moved >> k & 1:
             ln.SI[_N, first + k] += 1
-            # ln.K[lane] is a view of a borrowed array: it costs no count.
-            carry_last_stage(ln.K[first + k])
+            if not vector:
+                # ln.K[lane] is a view of a borrowed array: it costs no count.
+                carry_last_stage(ln.K[first + k])
     return live & ~moved
 
 
@@ -449,6 +495,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     order = _general_first(alpha, beta, todo)
     nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps, budget, order)
     vec = vector_groups(ln.LF, ln.LI, ln.S)    # again whenever lanes take points
+    fresh = _EVERY_LANE     # lanes whose first stage is in K, not in the scratch
     while _any(ln.live):
         idle = False
         for first in range(0, LANES, VECTOR):  # the step's size, after march()'s budget test
@@ -457,7 +504,9 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
                 if left >> k & 1:
                     idle = _sized_or_ended(ln, first + k, ends) or idle
         if not idle:
-            rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y, ln.S, vec)
+            rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y, ln.S, vec,
+                          fresh)
+            fresh = 0
             for first in range(0, LANES, VECTOR):  # the rest of march()'s step
                 vector = vec >> first & 1 != 0
                 left = _moved_on_group(ln, first, rest_tol, vector)
@@ -466,8 +515,11 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
                         if vector:
                             stages_out(ln.K, ln.S, first + k)
                         idle = _finished(ln, first + k, K2, Q, rest_tol, e_tol, ends) or idle
+                        fresh |= 1 << (first + k)     # its next first stage is in K
         if idle:
+            was = _live_lanes(ln)
             nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, order)
-            vec = vector_groups(ln.LF, ln.LI, ln.S)
+            fresh |= _live_lanes(ln) & ~was          # new points: their first stage in K
+            vec, fresh = _regrouped(ln, vec, fresh)
     # The owners live until the borrowed views are done with.
     own.live[0] = K2_own[0, 0] == Q_own[0, 0]

@@ -20,11 +20,11 @@ from sweep.kernels.contact import (general_arguments, general_at, rhs, rhs_at, r
                                    rhs_general, rhs_vector, vector_law, vector_law_at)
 from sweep.kernels.tableau import DORMAND_PRINCE_54
 from sweep.kernels.vmath import (VECTOR, exp4, log4, vadd, vdot, vgather, vload, vmul, vpack,
-                                 vscatter, vstore)
+                                 vselect_bits, vstore)
 
 __all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "SCRATCH", "vector_groups",
-           "stages_out", "rk_stage", "stage_point", "rk_combine", "local_error",
-           "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
+           "stages_out", "carry_in_scratch", "rk_stage", "stage_point", "rk_combine",
+           "local_error", "dense_coefficients", "dense_eval", "N_STAGES", "N_DENSE"]
 
 _T = DORMAND_PRINCE_54
 _A = np.ascontiguousarray(_T.A)
@@ -146,16 +146,20 @@ _U0, _W0, _H0, _LAW = range(3 * N_STAGES, 3 * N_STAGES + 4)
 
 
 @jit(inline="always")
-def rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec):
+def rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec, fresh):
     """:func:`rk_step` for several points at once: lane ``l`` (where ``live[l]``) steps
     ``(u[l], w[l])`` by ``h[l]`` with the law in row ``l`` of ``LF, LI``
     (:func:`sweep.kernels.contact.rhs_at`), its stages in ``K[l]`` (``K[l, 0]`` = f at the
-    start on entry; for the lanes of a vector group only the last there, the others in
-    ``S`` until :func:`stages_out`), its ``(u_new, w_new, dr)`` in ``y[:3, l]`` and the
-    step's local error estimates of w and q (:func:`local_error`) in ``y[3:5, l]``; the
-    number of lanes a multiple of four (:func:`_general_stage`). ``S``: scratch,
-    :data:`SCRATCH` times the lanes; ``vec``: the lanes' :func:`vector_groups`, run on
-    ``S`` since their laws last changed.
+    start on entry), its ``(u_new, w_new, dr)`` in ``y[:3, l]`` and the step's local error
+    estimates of w and q (:func:`local_error`) in ``y[3:5, l]``; the number of lanes a
+    multiple of four (:func:`_general_stage`). ``S``: scratch, :data:`SCRATCH` times the
+    lanes; ``vec``: the lanes' :func:`vector_groups`, run on ``S`` since their laws last
+    changed.
+
+    The lanes of a vector group keep their stages in ``S``, not ``K``, until
+    :func:`stages_out`, and take the first stage from ``S`` too (the caller carries the
+    last stage there, :func:`carry_in_scratch`), but for those whose bit is set in
+    ``fresh``: theirs is in ``K[l, 0]`` (a new point, a step after events).
 
     Each stage is formed for every lane before the next: the lanes' chains of dependent
     operations (each stage waits on the power of u of the one before) overlap, where one
@@ -164,7 +168,7 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec):
     (:func:`_vector_stage`, :func:`_vector_combine`). Per lane the arithmetic is
     :func:`rk_step`'s and :func:`local_error`'s, operation for operation.
     """
-    _vectors_in(vec, u, w, h, K, S)
+    _vectors_in(vec, fresh, u, w, h, K, S)
     for i in range(1, N_STAGES):
         pending = 0
         for first in range(0, live.size, VECTOR):
@@ -221,9 +225,10 @@ def vector_groups(LF, LI, S):
 
 
 @jit(inline="always")
-def _vectors_in(vec, u, w, h, K, S):
-    """The first stage and step of the groups of ``vec`` stored in ``S`` as vectors (their
-    laws are there already: :func:`vector_groups`).
+def _vectors_in(vec, fresh, u, w, h, K, S):
+    """The step of the groups of ``vec`` stored in ``S`` as vectors, and the first stage of
+    their lanes set in ``fresh`` (the others' is there already, as are their laws:
+    :func:`carry_in_scratch`, :func:`vector_groups`).
 
     ``S`` holds rows of the lanes, row r of the lanes ``first ..`` at ``r n + first`` (n
     lanes): stage j's u, w and q components in rows 3j to 3j + 2, then the rows from _U0
@@ -234,9 +239,11 @@ def _vectors_in(vec, u, w, h, K, S):
         if vec >> first & 1:
             # Gathered element by element (vgather): the lanes' steps store them so.
             stride = K.shape[1] * K.shape[2]
-            vstore(S, first, vgather(K, first * stride, stride))
-            vstore(S, n + first, vgather(K, first * stride + 1, stride))
-            vstore(S, 2 * n + first, vgather(K, first * stride + 2, stride))
+            bits = fresh >> first & (1 << VECTOR) - 1
+            if bits:
+                for c in range(3):
+                    vstore(S, c * n + first, vselect_bits(
+                        bits, vgather(K, first * stride + c, stride), vload(S, c * n + first)))
             vstore(S, _U0 * n + first, vgather(u, first, 1))
             vstore(S, _W0 * n + first, vgather(w, first, 1))
             vstore(S, _H0 * n + first, vgather(h, first, 1))
@@ -262,25 +269,30 @@ def _vector_stage(i, first, K, S):
     vstore(S, 3 * i * n + first, fu)
     vstore(S, (3 * i + 1) * n + first, fw)
     vstore(S, (3 * i + 2) * n + first, fq)
-    if i == N_STAGES - 1:
-        # Only the last stage (f at the step's end, the next step's first) goes to K at
-        # every step; the others where a lane's step needs them (stages_out).
-        stride = K.shape[1] * K.shape[2]
-        vscatter(K, first * stride + 3 * i, stride, fu)
-        vscatter(K, first * stride + 3 * i + 1, stride, fw)
-        vscatter(K, first * stride + 3 * i + 2, stride, fq)
 
 
 @jit(inline="always")
 def stages_out(K, S, lane):
-    """Stages ``1 .. N_STAGES - 2`` of ``lane``'s step, a lane of a vector group of
-    :func:`rk_step_lanes`, from the scratch ``S`` into ``K[lane]`` (where the lane's step
-    needs more of them than the last: events, rules; stored there at every step, they were
-    15 of the 18 stores a step of each lane)."""
+    """The stages of ``lane``'s step, a lane of a vector group of :func:`rk_step_lanes`,
+    from the scratch ``S`` into ``K[lane]``, where the lane's step needs them (events,
+    rules; stored there at every step, they were the 18 stores and the gather of the
+    first stage of each lane's step)."""
     n = K.shape[0]
-    for j in range(1, N_STAGES - 1):
+    for j in range(N_STAGES):
         for comp in range(3):
             K[lane, j, comp] = S[(3 * j + comp) * n + lane]
+
+
+@jit(inline="always")
+def carry_in_scratch(S, first, bits):
+    """The next step's first stage is this one's last (first-same-as-last) for the lanes
+    ``first + k`` of a vector group whose bit k is set in ``bits``, in the scratch ``S``
+    of :func:`rk_step_lanes` (their ``K`` is not written)."""
+    n = S.size // SCRATCH
+    last = 3 * (N_STAGES - 1)
+    for c in range(3):
+        vstore(S, c * n + first, vselect_bits(bits, vload(S, (last + c) * n + first),
+                                              vload(S, c * n + first)))
 
 
 # The weights as tuples, for vdot.
