@@ -80,7 +80,9 @@ __all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
 #: Points marched at once. 8: the stages of eight lanes fill the core's out-of-order window
 #: (KK stages: 74 ns a step for one point, about 25-30 ns a point for eight, before the
 #: vector groups). 12 or 16 gave the laws' draws 2-10% more but the Sobol design 4% less
-#: (more lanes idle in refinement passes and blocks' tails; docs/speed/history.md). A
+#: (more lanes idle in refinement passes and blocks' tails; docs/speed/history.md); 12
+#: again with the groups' moves as vectors: laws 0-7% more, general exponents 2-6% and the
+#: Sobol design 4% less (2026-12-05 15:50 UTC). A
 #: multiple of four: general lanes take their powers four at a time (rk_step_lanes).
 LANES = 8
 if LANES % VECTOR:

@@ -309,7 +309,9 @@ def vtuple(typingctx, x):
     return ret(x), codegen
 
 
-def _binary(operation):
+def _two_operands(build, result):
+    """An intrinsic of two operands (:func:`_operand`): ``build(builder, a, b)`` of their
+    LLVM vectors, of numba type ``result``."""
     @intrinsic
     def of(typingctx, x, y):
         _operand(x)
@@ -317,11 +319,15 @@ def _binary(operation):
 
         def codegen(context, builder, signature, args):
             a, b = (_vector(builder, t, v) for t, v in zip(signature.args, args))
-            # With the kernels' one fastmath flag (sweep.kernels._jit.FLAGS): a product
-            # and a sum fuse here as they do in the scalar code.
-            return getattr(builder, operation)(a, b, flags=_CONTRACT)
-        return vector(x, y), codegen
+            return build(builder, a, b)
+        return result(x, y), codegen
     return of
+
+
+def _binary(operation):
+    # With the kernels' one fastmath flag (sweep.kernels._jit.FLAGS): a product and a sum
+    # fuse here as they do in the scalar code.
+    return _two_operands(lambda b, x, y: getattr(b, operation)(x, y, flags=_CONTRACT), vector)
 
 
 #: ``x + y``, ``x - y``, ``x * y``, ``x / y`` element by element.
@@ -347,16 +353,8 @@ def _bits(builder, test):
 
 
 def _compare(predicate):
-    @intrinsic
-    def bits(typingctx, x, y):
-        _operand(x)
-        _operand(y)
-
-        def codegen(context, builder, signature, args):
-            xv, yv = (_vector(builder, t, v) for t, v in zip(signature.args, args))
-            return _bits(builder, builder.fcmp_ordered(predicate, xv, yv))
-        return types.int64(x, y), codegen
-    return bits
+    return _two_operands(lambda b, x, y: _bits(b, b.fcmp_ordered(predicate, x, y)),
+                         types.int64)
 
 
 #: Bit k set where ``x[k] < y[k]`` (``<=``, ``>``, ``>=``, ``==``): Python's comparisons of
