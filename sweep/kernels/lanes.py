@@ -292,9 +292,8 @@ def _live_bits(ln, first):
 def _live_lanes(ln):
     """Bit l set where lane l marches a point."""
     bits = 0
-    for lane in range(LANES):
-        if ln.live[lane]:
-            bits |= 1 << lane
+    for first in range(0, LANES, VECTOR):
+        bits |= _live_bits(ln, first) << first
     return bits
 
 
@@ -351,9 +350,9 @@ def _guessed_group(ln, first):
 @jit(inline="always")
 def _eventful_bits(ln, first, u1, w1, v1, r1, rest_tol):
     """Bits of the lanes ``first ..`` whose step, ended at ``(u1, w1, v1, r1)`` (vectors),
-    :func:`~sweep.kernels.march.uneventful` does not call uneventful, or whose state holds
-    a NaN (their comparisons: the lane takes the whole step's path, which is right for
-    every step)."""
+    :func:`~sweep.kernels.march.uneventful` does not call uneventful, or whose state or
+    static compression holds a NaN (where Python's ``max`` and these masks could disagree:
+    the lane takes the whole step's path, which is right for every step)."""
     n = LANES
     i = ln.SI
     p1 = ieq_bits(i, _PHASE * n + first, 1)
@@ -370,7 +369,7 @@ def _eventful_bits(ln, first, u1, w1, v1, r1, rest_tol):
     rest = vlt_bits(vabs(vsub(u1, ubar)), rest_tol) & vlt_bits(vabs(v1), rest_tol)
     spent = (later | _ALL & ~ieq_bits(i, _EP1 * n + first, 0)) & vgt_bits(
         vadd(vmul(v1, vsub(w1, v1)), r1), vload(ln.SF, _QS * n + first))
-    nan = vnan_bits(u1) | vnan_bits(w1) | vnan_bits(v1) | vnan_bits(r1)
+    nan = vnan_bits(u1) | vnan_bits(w1) | vnan_bits(v1) | vnan_bits(r1) | vnan_bits(ubar)
     return (capped | _ALL & ~(p1 | p2 | p3) | event | creep | loaded & (rest | spent) | nan)
 
 
