@@ -471,12 +471,9 @@ def _located(st, c, k, u1, w1, v1, s, n, K, K2, Q):
     phase, u_max = st.phase, st.u_max
     none = Ending(GOING, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
     u, w, r, t = st.u, st.w, st.r, st.t
-    th0 = 0.0
-    dense = phase == 1 and _compressed(v1, w1)
-    if dense:
-        dense_coefficients(K, s, Q)
-        th0, u_max = _compression_end(u, w, r, s, Q, K, K2, c)
-        n += 1
+    # Which events lie in the step follows from its ends alone; they are located after.
+    compressed = phase == 1 and _compressed(v1, w1)
+    if compressed:
         phase = 2
     crossed = phase == 2 and k.ubar > 0.0 and u1 < k.ubar
     if crossed:
@@ -484,14 +481,17 @@ def _located(st, c, k, u1, w1, v1, s, n, K, K2, Q):
     # With g~ = 0 (u-bar = 0) the return to u-bar in phase 2 is the detachment itself.
     exiting = (phase == 3 or (phase == 2 and k.ubar == 0.0)) and u1 <= 0.0
     trough = not exiting and phase == 3 and v1 >= 0.0
-    if not (exiting or trough):
+    if not (compressed or exiting or trough):
         # Phase 2's end, where it lies in the step, bounds only the events of phase 3 in
         # the same step: at most crossings there are none, and its location (and the
         # interpolant's coefficients) would go unused (a locate a point: 3% of its time).
         return phase, u_max, n, none
-    if not dense:
-        dense_coefficients(K, s, Q)
-    if crossed:
+    dense_coefficients(K, s, Q)
+    th0 = 0.0
+    if compressed:
+        th0, u_max = _compression_end(u, w, r, s, Q, K, K2, c)
+        n += 1
+    if crossed and (exiting or trough):
         th0 = locate(int(ON_U), k.ubar, u, w, Q, c, th0, 1.0)
     th_exit = 1.0
     if trough:
