@@ -25,8 +25,9 @@ import numpy as np
 from sweep.kernels._jit import FLAGS
 from sweep.kernels.contact import LAW_COLUMNS, make_law, put_law, rhs
 from sweep.kernels.lanes import LANES
-from sweep.kernels.stepper import (N_STAGES, SCRATCH, rk_combine, rk_stage, rk_step_lanes,
-                                   vector_groups)
+from sweep.kernels.stepper import (N_STAGES, SCRATCH, carry_in_scratch, rk_combine, rk_stage,
+                                   rk_step_lanes, vector_groups)
+from sweep.kernels.vmath import VECTOR
 
 _H = 1e-9      # a tiny step keeps the state, and so the work per stage, the same throughout
 
@@ -87,12 +88,20 @@ def all_lanes(n, gamma, gtilde):
         put_law(LF, LI, l, c)
         K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = rhs(u[l], w[l], c)
     vec = vector_groups(LF, LI, S)
+    fresh = (1 << LANES) - 1      # the first stages are in K at the start
     acc = 0.0
     for _ in range(n // LANES):
-        rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec, (1 << LANES) - 1)
+        rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec, fresh)
+        fresh = 0
+        for first in range(0, LANES, VECTOR):
+            if vec >> first & 1:
+                # A vector group's stages stay in the scratch: carried there, as lanes does.
+                carry_in_scratch(S, first, (1 << VECTOR) - 1)
+            else:
+                for l in range(first, first + VECTOR):
+                    K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = K[l, 6, 0], K[l, 6, 1], K[l, 6, 2]
         for l in range(LANES):
             u[l], w[l] = y[0, l], y[1, l]
-            K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = K[l, 6, 0], K[l, 6, 1], K[l, 6, 2]
             acc += y[2, l]
     return acc
 
