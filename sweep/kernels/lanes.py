@@ -10,7 +10,7 @@ stopping rules -- is the one-point march's own code (:func:`sweep.kernels.stepsi
 :func:`sweep.kernels.march.after_stages_estimated`), run per lane; only the step's local
 error estimates are formed with the stages, for all lanes (``rk_step_lanes``). Most
 steps need none of that code but their size and the state moved on
-(:func:`sweep.kernels.march.uneventful`): those are done for groups of four lanes as
+(no damping cap, event or rule at their ends): those are done for groups of four lanes as
 vectors, the lanes' fields read and written in place (:func:`_guessed_group`,
 :func:`_moved_on_group`; the State's fields are rows of the lanes). A lane whose march has
 ended takes the next point (those with general exponents first, whose stages take their
@@ -64,13 +64,12 @@ from numba.extending import intrinsic
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import LAW_COLUMNS, general_exponents, law_at, make_law, put_law
-from sweep.kernels.creep import Creep, creep_constants
+from sweep.kernels.creep import ROUNDING_V, Creep, creep_constants
 from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
                                  carry_last_stage, out_of_budget, scratch, start)
 from sweep.kernels.stepper import (N_STAGES, SCRATCH, carry_in_scratch, rk_step_lanes,
                                    stages_out, vector_groups)
 from sweep.kernels.stepsize import StepPolicy, first_guess, policy
-from sweep.kernels.creep import ROUNDING_V
 from sweep.kernels.vmath import (VECTOR, ieq_bits, ilt_bits, vabs, vadd, vdiv, veq_bits,
                                  vgather, vge_bits, vgt_bits, vle_bits, vload, vlt_bits, vmul,
                                  vnan_bits, vselect_bits, vstore, vsub)
@@ -82,8 +81,8 @@ __all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
 #: vector groups). 12 or 16 gave the laws' draws 2-10% more but the Sobol design 4% less
 #: (more lanes idle in refinement passes and blocks' tails; docs/speed/history.md); 12
 #: again with the groups' moves as vectors: laws 0-7% more, general exponents 2-6% and the
-#: Sobol design 4% less (2026-12-05 15:50 UTC). A
-#: multiple of four: general lanes take their powers four at a time (rk_step_lanes).
+#: Sobol design 4% less (2026-12-05 15:50 UTC). A multiple of four: general lanes take
+#: their powers four at a time (rk_step_lanes).
 LANES = 8
 if LANES % VECTOR:
     raise ImportError(f"LANES ({LANES}) must be a multiple of vmath.VECTOR ({VECTOR})")
@@ -350,9 +349,11 @@ def _guessed_group(ln, first):
 @jit(inline="always")
 def _eventful_bits(ln, first, u1, w1, v1, r1, rest_tol):
     """Bits of the lanes ``first ..`` whose step, ended at ``(u1, w1, v1, r1)`` (vectors),
-    :func:`~sweep.kernels.march.uneventful` does not call uneventful, or whose state or
-    static compression holds a NaN (where Python's ``max`` and these masks could disagree:
-    the lane takes the whole step's path, which is right for every step)."""
+    may need more than the state moved on: the damping cap on, or one of the march's tests
+    true (``march._may_have_event``, ``_creep_rules_apply``, ``_may_settle``: their
+    operations, as bit masks), or a NaN in the state or the static compression (where
+    Python's ``max`` and these masks could disagree: the lane takes the whole step's path,
+    which is right for every step)."""
     n = LANES
     i = ln.SI
     p1 = ieq_bits(i, _PHASE * n + first, 1)
@@ -376,7 +377,7 @@ def _eventful_bits(ln, first, u1, w1, v1, r1, rest_tol):
 @jit(inline="always")
 def _moved_on_group(ln, first, rest_tol, vector):
     """Where the step just taken by a live lane of the :data:`~sweep.kernels.vmath.VECTOR`
-    lanes ``first ..`` is :func:`~sweep.kernels.march.uneventful` (most steps), its state
+    lanes ``first ..`` needs nothing more (:func:`_eventful_bits`; most steps), its state
     moved on in place, as :func:`~sweep.kernels.march.after_stages_estimated` moves it, as
     vectors (``vector``: their stages are in ``ln.S``, :func:`rk_step_lanes`); returns the
     bits of the live lanes it did not move on, their states untouched. Read and written

@@ -56,8 +56,8 @@ from sweep.kernels.stepsize import (StepPolicy, damping_step, first_guess, local
 
 __all__ = ["Ending", "State", "march", "march_point", "start", "finish_step", "after_stages",
            "after_stages_estimated", "out_of_budget", "EXIT", "TROUGH", "SPENT", "REST",
-           "BUDGET", "CREEP", "NEGLIGIBLE", "GOING", "scratch", "uneventful",
-           "compensated_sum", "carry_last_stage"]
+           "BUDGET", "CREEP", "NEGLIGIBLE", "GOING", "scratch", "compensated_sum",
+           "carry_last_stage"]
 
 # Relative roundoff in the dissipated energy q (a sum of positive terms): the energy rule
 # waits until q exceeds the initial energy 1/2 by more than it.
@@ -569,26 +569,13 @@ def _creep_rules_apply(phase, capped, v, w):
 
 @jit(inline="always")
 def _may_settle(u, w, r, v, phase, energy_in_phase1, q_stuck, gtilde, ubar, rest_tol):
-    """The rest box or the energy rule may apply at a step's end (:func:`_settled`)."""
+    """The rest box or the energy rule may apply at a step's end (:func:`_settled`).
+    (With the damping cap, :func:`_may_have_event` and :func:`_creep_rules_apply`, the
+    tests the multi-point driver makes as vectors of lanes, ``lanes._eventful_bits``: a
+    step none of them flags needs nothing but the state moved on; ``tests/test_lanes.py``
+    holds the two to the same Endings, bit for bit.)"""
     return (gtilde > 0.0 and _at_rest(u, v, ubar, rest_tol)) or _may_not_return(
         u, w, r, v, phase, energy_in_phase1, q_stuck, gtilde)
-
-
-@jit(inline="always")
-def uneventful(phase, capped, u1, w1, v1, r1, energy_in_phase1, q_stuck, gtilde, ubar,
-               rest_tol):
-    """Whether a step of a march in ``phase`` that ended at ``(u1, w1)``, velocity ``v1``
-    and dissipation integral ``r1``, needs nothing of :func:`after_stages_estimated` but
-    the state moved on: no damping cap (``capped``), no event inside it, no rule at its end
-    (``gtilde``, ``ubar``: the law's load and static compression; the state's other fields
-    as in :class:`State`). Most steps are; the multi-point driver moves those itself
-    (:mod:`sweep.kernels.lanes`), judging them as vectors of lanes with these tests'
-    operations (``lanes._eventful_bits``; ``tests/test_lanes.py`` holds the two to the same
-    Endings, bit for bit). The law comes as its one number used."""
-    return not (capped or _may_have_event(phase, u1, v1, w1, ubar)
-                or _creep_rules_apply(phase, capped, v1, w1)
-                or _may_settle(u1, w1, r1, v1, phase, energy_in_phase1, q_stuck, gtilde,
-                               ubar, rest_tol))
 
 
 @jit(counted=False)

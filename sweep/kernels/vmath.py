@@ -391,33 +391,17 @@ def vselect_bits(typingctx, bits, a, b):
     return vector(bits, a, b), codegen
 
 
-def _int_row(arr, *indices):
-    """Type check of the integer comparisons' arguments: a C-contiguous int64 array and
-    integer indices into it (flat)."""
-    if not (isinstance(arr, types.Array) and arr.layout == "C" and arr.dtype == types.int64
-            and all(isinstance(t, types.Integer) for t in indices)):
-        raise numba.core.errors.TypingError(
-            f"a C-contiguous int64 array and integer indices are needed, "
-            f"got {arr} and {', '.join(str(t) for t in indices)}")
-
-
 _IVT = ir.VectorType(ir.IntType(64), VECTOR)
-
-
-def _int_load(context, builder, arr, value, index, index_type):
-    data = context.make_array(arr)(context, builder, value).data
-    ptr = builder.gep(data, [context.cast(builder, index, index_type, types.intp)])
-    return builder.load(builder.bitcast(ptr, _IVT.as_pointer()), align=8)
 
 
 @intrinsic
 def ieq_bits(typingctx, arr, start, value):
     """Bit k set where ``a.flat[start + k] == value``, k < VECTOR, for a C-contiguous int64
     array (one vector load, no bounds check)."""
-    _int_row(arr, start, value)
+    _require_flat(arr, start, value, dtype=types.int64)
 
     def codegen(context, builder, signature, args):
-        x = _int_load(context, builder, arr, args[0], args[1], start)
+        x = builder.load(_at(context, builder, arr, args[0], args[1], start, _IVT), align=8)
         v = context.cast(builder, args[2], value, types.int64)
         return _bits(builder, builder.icmp_signed("==", x, _pack(builder, _IVT,
                                                                    [v] * VECTOR)))
@@ -425,16 +409,16 @@ def ieq_bits(typingctx, arr, start, value):
 
 
 @intrinsic
-def ilt_bits(typingctx, arr, a, b):
-    """Bit k set where ``a.flat[a + k] < a.flat[b + k]``, k < VECTOR, for a C-contiguous
-    int64 array (two vector loads, no bounds check)."""
-    _int_row(arr, a, b)
+def ilt_bits(typingctx, arr, i, j):
+    """Bit k set where ``a.flat[i + k] < a.flat[j + k]``, k < VECTOR, for a C-contiguous
+    int64 array ``a`` (two vector loads, no bounds check)."""
+    _require_flat(arr, i, j, dtype=types.int64)
 
     def codegen(context, builder, signature, args):
-        x = _int_load(context, builder, arr, args[0], args[1], a)
-        y = _int_load(context, builder, arr, args[0], args[2], b)
+        x, y = (builder.load(_at(context, builder, arr, args[0], at, t, _IVT), align=8)
+                for at, t in ((args[1], i), (args[2], j)))
         return _bits(builder, builder.icmp_signed("<", x, y))
-    return types.int64(arr, a, b), codegen
+    return types.int64(arr, i, j), codegen
 
 
 def _sqrt(builder, v):
@@ -528,13 +512,13 @@ def vsqrt_where_equal(typingctx, k, value, x, b):
     return vector(k, value, x, b), codegen
 
 
-def _require_flat(arr, *indices):
-    """Type check of the memory operations' arguments: a C-contiguous float64 array (read
-    through its data pointer, flat) and integer indices into it."""
-    if not (isinstance(arr, types.Array) and arr.layout == "C" and arr.dtype == types.float64
+def _require_flat(arr, *indices, dtype=types.float64):
+    """Type check of the memory operations' arguments: a C-contiguous array of ``dtype``
+    (read through its data pointer, flat) and integer indices into it."""
+    if not (isinstance(arr, types.Array) and arr.layout == "C" and arr.dtype == dtype
             and all(isinstance(t, types.Integer) for t in indices)):
         raise numba.core.errors.TypingError(
-            f"a C-contiguous float64 array and integer indices are needed, "
+            f"a C-contiguous {dtype} array and integer indices are needed, "
             f"got {arr} and {', '.join(str(t) for t in indices)}")
 
 
@@ -547,11 +531,12 @@ def _strided(context, builder, signature, args, count):
             for k in range(count)]
 
 
-def _at(context, builder, arr, value, index, index_type):
-    """Pointer to element ``index`` of a C-contiguous array's data, seen as a vector."""
+def _at(context, builder, arr, value, index, index_type, vt=_VT):
+    """Pointer to element ``index`` of a C-contiguous array's data, seen as a vector of
+    type ``vt``."""
     data = context.make_array(arr)(context, builder, value).data
     ptr = builder.gep(data, [context.cast(builder, index, index_type, types.intp)])
-    return builder.bitcast(ptr, _VT.as_pointer())
+    return builder.bitcast(ptr, vt.as_pointer())
 
 
 @intrinsic
