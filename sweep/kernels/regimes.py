@@ -57,6 +57,9 @@ DEEP_WELL_EPS2 = 1e-14
 #: sticking deep-well point still reports the undamped u_max (1e-13: the march's own
 #: u_max is good to ~1e-11).
 STUCK_UMAX_LOG_SHIFT = math.log(1e-13)
+#: Loads up to which eps^2 = g~^(-(alpha+1)/alpha) >= g~^-2 (alpha >= 1, the domain's
+#: least) is surely above DEEP_WELL_EPS2: 1e-12 there.
+_SHALLOW_GTILDE = 1e6
 
 _OK = int(Status.OK)
 _STUCK = int(Status.STUCK)
@@ -116,6 +119,10 @@ def linear_overdamped(c):
 @jit(inline="always")
 def creeps_from_start(c):
     """Heavy damping certified at tau = 0 never to leave (module docstring)."""
+    # kappa < 0 (KK, Hertz, SHC) or no damping: no certificate at tau = 0, whatever the
+    # constants, whose powers (2 to 4 a point) were 2% of the KK draw's time at tol 1e-8.
+    if c.gamma <= 0.0 or c.alpha + 1.0 - 2.0 * c.beta < 0.0:
+        return _none()
     if not never_leaves_from_start(c, creep_constants(c)):
         return _none()
     return True, 0.0, math.inf, _NAN, _AT_REST, 0.0
@@ -190,7 +197,9 @@ def _stuck_umax(c, log_g, u_max):
 @jit(inline="always")
 def deep_well(c):
     """Very large loads (module docstring): the large-load law (23) with its error bound."""
-    if not (c.gtilde > 0.0):
+    # eps^2 >= g~^-2 (alpha >= 1) is above DEEP_WELL_EPS2 below this load: no log and exp
+    # a point where the well cannot be that deep.
+    if not (c.gtilde > _SHALLOW_GTILDE):
         return _none()
     log_g = math.log(c.gtilde)
     eps2 = math.exp(-(c.alpha + 1.0) / c.alpha * log_g)
