@@ -348,12 +348,15 @@ def _guessed_group(ln, first):
 
 @jit(inline="always")
 def _eventful_bits(ln, first, u1, w1, v1, r1, rest_tol):
-    """Bits of the lanes ``first ..`` whose step, ended at ``(u1, w1, v1, r1)`` (vectors),
-    may need more than the state moved on: the damping cap on, or one of the march's tests
-    true (``march._may_have_event``, ``_creep_rules_apply``, ``_may_settle``: their
-    operations, as bit masks), or a NaN in the state or the static compression (where
-    Python's ``max`` and these masks could disagree: the lane takes the whole step's path,
-    which is right for every step)."""
+    """``(eventful, crossed)``: bits of the lanes ``first ..`` whose step, ended at ``(u1,
+    w1, v1, r1)`` (vectors), may need more than the state moved on: the damping cap on, or
+    one of the march's tests true (``march._may_have_event``, ``_creep_rules_apply``,
+    ``_may_settle``: their operations, as bit masks), or a NaN in the state or the static
+    compression (where Python's ``max`` and these masks could disagree: the lane takes the
+    whole step's path, which is right for every step); and of those whose only event is
+    phase 2's end, u-bar crossed downward with neither the floor reached nor the bead
+    turned in the step (``march._located`` then only sets phase 3: no location, the rules
+    as at any step, which read phase 2 and 3 alike)."""
     n = LANES
     i = ln.SI
     p1 = ieq_bits(i, _PHASE * n + first, 1)
@@ -361,9 +364,11 @@ def _eventful_bits(ln, first, u1, w1, v1, r1, rest_tol):
     p3 = ieq_bits(i, _PHASE * n + first, 3)
     capped = _ALL & ~ieq_bits(i, _CAPPED * n + first, 0)
     ubar = vload(ln.CR, _UBAR * n + first)
-    event = (p1 & vle_bits(v1, vmul(ROUNDING_V, vabs(w1))) | p2 & (
-        vlt_bits(u1, ubar) | veq_bits(ubar, 0.0) & vle_bits(u1, 0.0))
-        | p3 & (vle_bits(u1, 0.0) | vge_bits(v1, 0.0)))
+    crossed = p2 & vgt_bits(ubar, 0.0) & vlt_bits(u1, ubar)
+    crossed_only = crossed & vgt_bits(u1, 0.0) & vlt_bits(v1, 0.0)
+    event = (p1 & vle_bits(v1, vmul(ROUNDING_V, vabs(w1))) | p2 & veq_bits(ubar, 0.0)
+             & vle_bits(u1, 0.0) | crossed & ~crossed_only
+             | p3 & (vle_bits(u1, 0.0) | vge_bits(v1, 0.0)))
     later = _ALL & ~p1
     creep = (later | capped) & vge_bits(vadd(v1, w1), 0.0)
     loaded = vgt_bits(vgather(ln.LF, first * ln.LF.shape[1] + 3, ln.LF.shape[1]), 0.0)
@@ -371,7 +376,9 @@ def _eventful_bits(ln, first, u1, w1, v1, r1, rest_tol):
     spent = (later | _ALL & ~ieq_bits(i, _EP1 * n + first, 0)) & vgt_bits(
         vadd(vmul(v1, vsub(w1, v1)), r1), vload(ln.SF, _QS * n + first))
     nan = vnan_bits(u1) | vnan_bits(w1) | vnan_bits(v1) | vnan_bits(r1) | vnan_bits(ubar)
-    return (capped | _ALL & ~(p1 | p2 | p3) | event | creep | loaded & (rest | spent) | nan)
+    eventful = (capped | _ALL & ~(p1 | p2 | p3) | event | creep | loaded & (rest | spent)
+                | nan)
+    return eventful, crossed_only & ~eventful
 
 
 @jit(inline="always")
@@ -395,9 +402,12 @@ def _moved_on_group(ln, first, rest_tol, vector):
     r, rc = vload(f, _R * n + first), vload(f, _RC * n + first)
     d = vsub(vload(y, 2 * n + first), rc)
     r1 = vadd(r, d)
-    moved = live & ~_eventful_bits(ln, first, u1, w1, v1, r1, rest_tol)
+    eventful, crossed = _eventful_bits(ln, first, u1, w1, v1, r1, rest_tol)
+    moved = live & ~eventful
     if moved == 0:
         return live
+    if crossed != 0:
+        _entered_phase3(ln, first, moved & crossed)
     vstore(ln.u, first, vselect_bits(moved, u1, vload(ln.u, first)))
     vstore(ln.w, first, vselect_bits(moved, w1, vload(ln.w, first)))
     _vput(f, _T * n + first, moved, vadd(vload(f, _T * n + first), vload(ln.h, first)))
@@ -417,6 +427,14 @@ def _moved_on_group(ln, first, rest_tol, vector):
                 # ln.K[lane] is a view of a borrowed array: it costs no count.
                 carry_last_stage(ln.K[first + k])
     return live & ~moved
+
+
+@jit(inline="always")
+def _entered_phase3(ln, first, bits):
+    """Phase 3 for the lanes ``first + k`` of the bits k of ``bits``."""
+    for k in range(VECTOR):
+        if bits >> k & 1:
+            ln.SI[_PHASE, first + k] = 3
 
 
 @jit(inline="always")
