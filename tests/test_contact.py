@@ -151,3 +151,38 @@ def test_the_coded_powers_are_the_powers_to_rounding(p):
     kind = contact.power_kind.py_func(p)
     for x in np.logspace(-100, 100, 121):
         np.testing.assert_allclose(contact.ppow(x, p, kind), x ** p, rtol=4 * EPS)
+
+
+def test_each_code_names_its_exponent():
+    assert [contact.power_kind.py_func(p) for p in contact.KIND_EXPONENTS] == list(
+        range(len(contact.KIND_EXPONENTS)))
+
+
+@pytest.mark.parametrize("alpha", [1.0, 1.25, 1.5, 2.0, 2.5, 3.0])
+def test_the_unloaded_umax_of_a_code_is_the_computed_one_bit_for_bit(alpha):
+    # The coded exponents take u_M(0) from a table formed in Python; a general code
+    # computes it in the kernel. Both must be the same double (the march's step follows it).
+    ka = contact.power_kind.py_func(alpha)
+    assert ka != contact.power_kind.py_func(alpha + 1e-9)
+    general = contact.power_kind.py_func(alpha + 1e-9)
+    assert contact.umax_undamped(alpha, 0.0, ka) == contact.umax_undamped(alpha, 0.0, general)
+    assert contact.umax_undamped(alpha, 0.0, ka) == pytest.approx(
+        (0.5 * (alpha + 1.0)) ** (1.0 / (alpha + 1.0)), rel=EPS)
+
+
+@pytest.mark.parametrize("beta", [1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0])
+def test_the_damping_integrals_mean_of_a_code_is_the_quadratures(beta):
+    # sweep.kernels.outcome places e's damping integral against its thresholds with the
+    # mean of sin^(beta - 1) over a half period: a table for the codes of beta - 1.
+    from scipy.integrate import quad
+
+    from sweep.kernels import outcome
+    p = beta - 1.0
+    kd = contact.power_kind.py_func(p)
+    mean = outcome._SINE_MEANS[kd] if kd < len(outcome._SINE_MEANS) else None
+    ref = quad(lambda x: np.sin(x) ** p, 0.0, np.pi, epsabs=0, epsrel=1e-13)[0] / np.pi
+    if mean is not None:
+        assert mean == pytest.approx(ref, rel=1e-12)
+    # The kernel's estimate, from the table or not, with u_max = t_f = gamma = 1.
+    got = outcome._damping_integral.py_func(beta, kd, 1.0, 1.0, 1.0)
+    assert got == pytest.approx(beta * ref, rel=1e-12)

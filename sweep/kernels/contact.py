@@ -27,8 +27,8 @@ from sweep.registry import PARAMETERS
 __all__ = ["Law", "make_law", "put_law", "law_at", "LAW_COLUMNS", "rhs_at", "power_kind", "ppow",
            "ppow_called", "rhs", "rhs_called", "velocity", "accel", "dissipated", "potential",
            "damping_rate", "equilibrium", "well_depth", "damping_ratio", "natural_frequency",
-           "umax_undamped", "elastic_frequency", "in_domain", "KIND_ONE", "general_exponents",
-           "general_at", "general_arguments", "rhs_general", "gtilde_at", "vector_law_at",
+           "umax_undamped", "elastic_frequency", "in_domain", "KIND_ONE", "KIND_EXPONENTS",
+           "general_exponents", "general_at", "general_arguments", "rhs_general", "gtilde_at", "vector_law_at",
            "vector_law", "rhs_vector"]
 
 # Exponents of the report's models get a pow-free evaluation: pow() dominates the cost of a
@@ -36,6 +36,12 @@ __all__ = ["Law", "make_law", "put_law", "law_at", "LAW_COLUMNS", "rhs_at", "pow
 (KIND_ONE, _KIND_THREE_HALVES, _KIND_TWO, _KIND_FIVE_HALVES, _KIND_FIVE_FOURTHS, _KIND_THREE,
  _KIND_ZERO, _KIND_HALF, _KIND_QUARTER) = range(9)
 _KIND_GENERAL = 99
+#: The exponent of each code, in the codes' order (:func:`power_kind` is its inverse).
+KIND_EXPONENTS = (1.0, 1.5, 2.0, 2.5, 1.25, 3.0, 0.0, 0.5, 0.25)
+#: ``u_M(0) = ((a + 1)/2)^(1/(a + 1))`` of :func:`umax_undamped` for each code's exponent a,
+#: formed here by the same operations (Python's float power is the C library's pow, as
+#: numba's): a pow less a march.
+_UMAX_FREE = tuple((0.5 * (a + 1.0)) ** (1.0 / (a + 1.0)) for a in KIND_EXPONENTS)
 
 _ALPHA_MIN = PARAMETERS["alpha"].minimum
 _BETA_MIN = PARAMETERS["beta"].minimum
@@ -447,7 +453,7 @@ def umax_undamped(alpha, gtilde, ka):
     asymptote ``((alpha + 1) g~)^(1/alpha)``).
     """
     ap1 = alpha + 1.0
-    u0 = (0.5 * ap1) ** (1.0 / ap1)
+    u0 = _UMAX_FREE[ka] if ka < len(_UMAX_FREE) else (0.5 * ap1) ** (1.0 / ap1)
     if gtilde <= 0.0:
         return u0
     # Upper bound: the root of u^(a+1)/(a+1) = 1/2 + g~ u is below u0 + (ap1 g~)^(1/a).

@@ -50,6 +50,7 @@ import numpy as np
 
 from sweep.kernels._jit import jit
 from sweep.kernels.balance import ROUNDING, defect_share, q_error, swing2
+from sweep.kernels.contact import KIND_EXPONENTS
 from sweep.kernels.march import CREEP, EXIT, NEGLIGIBLE, REST, SPENT, TROUGH
 from sweep.registry import Status
 
@@ -122,12 +123,25 @@ def cor_at_exit(h, v, damping):
     return max(-v, 0.0), False
 
 
+def _sine_mean(p):
+    """Mean of ``sin^p`` over a half period, ``Gamma((p+1)/2) / (Gamma(p/2+1) sqrt(pi))``."""
+    return math.exp(math.lgamma(0.5 * (p + 1.0)) - math.lgamma(0.5 * p + 1.0)) / math.sqrt(math.pi)
+
+
+_sine_mean_jit = jit(inline="always")(_sine_mean)
+#: :func:`_sine_mean` of each power code's exponent (``Law.kd``, of beta - 1): two lgammas
+#: and an exp less a decision. Formed by Python's lgamma, which may differ from the C
+#: library's in the last place: the mean only places a damping integral against thresholds.
+_SINE_MEANS = tuple(_sine_mean(p) for p in KIND_EXPONENTS)
+
+
 @jit(inline="always")
-def _damping_integral(beta, gamma, u_max, t_f):
+def _damping_integral(beta, kd, gamma, u_max, t_f):
     """Estimate of ``int gamma beta u^(beta-1) dtau`` over an impact of length t_f:
-    ``u^(beta-1)`` averaged over a half sine of amplitude u_max."""
+    ``u^(beta-1)`` averaged over a half sine of amplitude u_max (``kd``: the power code of
+    beta - 1)."""
     p = beta - 1.0
-    mean = math.exp(math.lgamma(0.5 * (p + 1.0)) - math.lgamma(0.5 * p + 1.0)) / math.sqrt(math.pi)
+    mean = _SINE_MEANS[kd] if kd < len(_SINE_MEANS) else _sine_mean_jit(p)
     return gamma * beta * mean * u_max ** p * t_f
 
 
@@ -141,7 +155,7 @@ def _undecided(h, dq):
 def _exit(c, end, h, dq, swing2):
     if h < -dq:  # the geometry overshot: the energy was spent before the floor
         return 0.0, _STUCK, 0.0, 0.0, 0.0
-    lam = _damping_integral(c.beta, c.gamma, end.u_max, end.t)
+    lam = _damping_integral(c.beta, c.kd, c.gamma, end.u_max, end.t)
     e, balance = cor_at_exit(end.h, end.v, lam)
     e_q = math.sqrt(max(2.0 * h, 0.0))
     e_v = max(-end.v, 0.0)
@@ -231,7 +245,7 @@ def exit_time(c, end, e, status, err):
     if not lead <= GRAZING_LEAD * end.t:
         return end.t
     speed = -end.v if end.kind == EXIT else 0.0
-    lam = _damping_integral(c.beta, c.gamma, end.u_max, end.t)
+    lam = _damping_integral(c.beta, c.kd, c.gamma, end.u_max, end.t)
     doubt = err + _velocity_error(end, e, lam, swing2(c), c.gtilde)
     if not abs(speed - e) > GRAZING_CERTAIN * doubt:
         return end.t
