@@ -6,6 +6,8 @@ law's codes (sqrt, products); whatever the exponent, the value is the formula's 
 """
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 import pytest
@@ -186,3 +188,28 @@ def test_the_damping_integrals_mean_of_a_code_is_the_quadratures(beta):
     # The kernel's estimate, from the table or not, with u_max = t_f = gamma = 1.
     got = outcome._damping_integral.py_func(beta, kd, 1.0, 1.0, 1.0)
     assert got == pytest.approx(beta * ref, rel=1e-12)
+
+
+@numba.njit
+def _overdamped(alpha, beta, gamma, gtilde):
+    return contact.overdamped_at_rest(alpha, beta, gamma, gtilde)
+
+
+def test_overdamped_at_rest_is_the_damping_ratios_test_near_and_far_from_one():
+    # Its bound skips the power where xi is surely below 1; the answer must be the
+    # formula's everywhere, within ulps of xi = 1 too.
+    rng = np.random.default_rng(3)
+    n = 20000
+    alpha, beta = rng.uniform(1, 6, n), rng.uniform(1, 6, n)
+    alpha[:n // 4] = 1.5
+    beta[:n // 4] = rng.choice([1.0, 1.25, 1.5, 2.5], n // 4)
+    gtilde = 10 ** rng.uniform(-12, 12, n)
+    gtilde[::50] = 0.0
+    expo = (2 * beta - alpha - 1) / (2 * alpha)
+    with np.errstate(divide="ignore"):
+        xi1 = beta / (2 * np.sqrt(alpha)) * gtilde ** expo     # xi at gamma = 1
+    gamma = np.where(rng.random(n) < 0.5, 10 ** rng.uniform(-6, 6, n),
+                     (1 + rng.uniform(-1e-14, 1e-14, n)) / np.where(xi1 > 0, xi1, 1))
+    for a, b, g, gt in zip(alpha, beta, gamma, gtilde):
+        xi = g * b / (2 * math.sqrt(a)) * gt ** ((2 * b - a - 1) / (2 * a)) if gt > 0 else 0.0
+        assert _overdamped(a, b, g, gt) == (xi >= 1.0), (a, b, g, gt)

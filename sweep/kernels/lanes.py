@@ -69,7 +69,7 @@ from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
                                  carry_last_stage, out_of_budget, scratch, start)
 from sweep.kernels.stepper import (N_STAGES, SCRATCH, carry_in_scratch, rk_step_lanes,
                                    stages_out, vector_groups)
-from sweep.kernels.stepsize import StepPolicy, first_guess, policy
+from sweep.kernels.stepsize import StepPolicy, first_guess, policy_at
 from sweep.kernels.vmath import (VECTOR, ieq_bits, ilt_bits, vabs, vadd, vdiv, veq_bits,
                                  vgather, vge_bits, vgt_bits, vle_bits, vload, vlt_bits, vmul,
                                  vnan_bits, vselect_bits, vstore, vsub)
@@ -236,9 +236,10 @@ def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, order):
         j = order[nxt]
         i = todo[j]
         c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
-        st = start(c, policy(c, steps[j]), ln.K[lane])
+        k = creep_constants(c)
+        st = start(c, policy_at(c, steps[j], k.ubar), ln.K[lane])
         put_law(ln.LF, ln.LI, lane, c)
-        _put_creep(ln, lane, creep_constants(c))
+        _put_creep(ln, lane, k)
         _put_state(ln, lane, st)
         ln.point[lane] = j
         ln.SI[_BUDGET, lane] = budget[j]

@@ -43,8 +43,8 @@ import numpy as np
 
 from sweep.kernels._jit import jit
 from sweep.kernels.balance import q_error
-from sweep.kernels.contact import (accel, damping_rate, damping_ratio, dissipated,
-                                   elastic_frequency, make_law, potential, ppow_called,
+from sweep.kernels.contact import (accel, damping_rate, dissipated, elastic_frequency,
+                                   make_law, overdamped_at_rest, potential, ppow_called,
                                    rhs_called, velocity, well_depth)
 from sweep.kernels.creep import (ROUNDING_V, creep_constants, energy_margin, jump,
                                  near_slow_branch, never_leaves)
@@ -444,7 +444,7 @@ def start(c, p, K):
     """The state at tau = 0 (u = 0, w = v = 1) with K[0] = f there."""
     fu, fw, fr = rhs_called(0.0, 1.0, c)
     _set_first_stage(K, fu, fw, fr)
-    overdamped = c.gtilde > 0.0 and damping_ratio(c.alpha, c.beta, c.gamma, c.gtilde) >= 1.0
+    overdamped = overdamped_at_rest(c.alpha, c.beta, c.gamma, c.gtilde)
     return State(0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.5, 0.5 * (1.0 + _ENERGY_ROUNDOFF), 1, np.nan,
                  0, 0.0, 0.0, p, overdamped)
 

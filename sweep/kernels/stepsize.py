@@ -70,14 +70,14 @@ from typing import NamedTuple
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import (damping_rate, damping_ratio, elastic_frequency,
-                                   umax_undamped, well_depth)
+                                   equilibrium, umax_undamped, well_depth_at)
 from sweep.kernels.special import first_order_constants, large_gtilde_constants
 
 __all__ = ["GRADE_RATIO", "GRADE_FIRST", "GRADE_STEPS", "GRADE_EXPONENT",
            "MAX_DEPTH_FACTOR", "DEPTH_POWER", "NEWTON_FLOOR", "base_step",
            "damping_limited", "damping_step", "grading", "singular_exponent",
            "graded_by_exponent", "needs_grading", "graded_step",
-           "StepPolicy", "policy", "local_policy", "first_guess", "uncapped",
+           "StepPolicy", "policy", "policy_at", "local_policy", "first_guess", "uncapped",
            "uncapped_guess", "resolution", "ERROR_AT_GRADE_STEPS", "q_constants",
            "predicted_q", "tol_share", "Q_REF", "P_MIN", "Q_STICK", "GAMMA_CALLABLE",
            "EPS_CALLABLE"]
@@ -175,8 +175,9 @@ DEPTH_POWER = 1.0 / 9.0
 
 
 @jit(inline="always")
-def _depth_factor(alpha, gtilde):
-    return min((1.0 + 2.0 * well_depth(alpha, gtilde)) ** DEPTH_POWER, MAX_DEPTH_FACTOR)
+def _depth_factor(ubar, alpha, gtilde):
+    return min((1.0 + 2.0 * well_depth_at(ubar, alpha, gtilde)) ** DEPTH_POWER,
+               MAX_DEPTH_FACTOR)
 
 
 @jit(inline="always")
@@ -368,13 +369,20 @@ class StepPolicy(NamedTuple):
     omega: float      # the elastic frequency the base step h was set for (at u_M)
 
 
-# Called, not inlined: once per march (compile time).
-@jit()
+@jit(inline="always")
 def policy(c, steps):
     """The :class:`StepPolicy` of the point with contact law ``c`` at resolution ``steps``."""
+    return policy_at(c, steps, equilibrium(c.alpha, c.gtilde))
+
+
+# Called, not inlined: once per march (compile time).
+@jit()
+def policy_at(c, steps, ubar):
+    """:func:`policy` given ``ubar``, the law's :func:`~sweep.kernels.contact.equilibrium`
+    (a pow less a march where the caller has it, as the lanes do in the creep constants)."""
     um = umax_undamped(c.alpha, c.gtilde, c.ka)
     omega = elastic_frequency(c.alpha, um)
-    depth = _depth_factor(c.alpha, c.gtilde)
+    depth = _depth_factor(ubar, c.alpha, c.gtilde)
     h = base_step(omega, depth, steps)
     capped = damping_limited(c, um, omega, depth)
     # Points whose damping cap can bind keep grading(): widened, the creep hard case
