@@ -37,8 +37,8 @@ import numpy as np
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import damping_rate, equilibrium, potential, ppow_called
 
-__all__ = ["Creep", "creep_constants", "never_leaves", "never_leaves_from_start",
-           "near_slow_branch", "jump", "energy_margin", "ROUNDING_V"]
+__all__ = ["Creep", "creep_constants", "creep_constants_at", "creep_kappa", "never_leaves",
+           "never_leaves_from_start", "near_slow_branch", "jump", "energy_margin", "ROUNDING_V"]
 
 #: Relative rounding margin of the energy H (16 eps times its largest term).
 _H_ROUNDING = 16.0 * float(np.finfo(np.float64).eps)
@@ -77,9 +77,21 @@ class Creep(NamedTuple):
 @jit(inline="always")
 def creep_constants(c):
     """The :class:`Creep` constants of the law ``c``."""
-    kappa = c.alpha + 1.0 - 2.0 * c.beta
+    return creep_constants_at(c, equilibrium(c.alpha, c.gtilde))
+
+
+@jit(inline="always")
+def creep_kappa(c):
+    """``kappa = alpha + 1 - 2 beta`` of the law ``c`` (docs/creep.md): where it is 0 the
+    constants take no power but u-bar's."""
+    return c.alpha + 1.0 - 2.0 * c.beta
+
+
+@jit(inline="always")
+def creep_constants_at(c, ubar):
+    """:func:`creep_constants` given ``ubar``, the law's equilibrium."""
+    kappa = creep_kappa(c)
     p = c.alpha + 1.0 - c.beta
-    ubar = equilibrium(c.alpha, c.gtilde)
     gb2 = (c.gamma * c.beta) ** 2
     u_c = (0.25 * c.gamma * c.gamma * c.beta) ** (1.0 / kappa) if kappa != 0.0 else math.nan
     f_uc = potential(u_c, c) if kappa != 0.0 else math.nan

@@ -63,8 +63,9 @@ from numba.core import types
 from numba.extending import intrinsic
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import LAW_COLUMNS, general_exponents, law_at, make_law, put_law
-from sweep.kernels.creep import ROUNDING_V, Creep, creep_constants
+from sweep.kernels.contact import (LAW_COLUMNS, equilibrium, general_exponents, law_at, make_law,
+                                   put_law)
+from sweep.kernels.creep import ROUNDING_V, Creep, creep_constants_at, creep_kappa
 from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
                                  carry_last_stage, out_of_budget, scratch, start)
 from sweep.kernels.stepper import (N_STAGES, SCRATCH, carry_in_scratch, rk_step_lanes,
@@ -91,7 +92,7 @@ N_ENDING = 9
 # Rows of the lanes' state floats (SF) and ints (SI): the State's fields and its policy's,
 # each a row of the lanes, so that a group of lanes reads and writes a field as a vector.
 _T, _R, _RC, _V, _E0, _QS, _UMAX, _LW, _LQ, _H, _RHO, _SMIN, _STEPS, _OMEGA = range(14)
-_PHASE, _N, _EP1, _GRADED, _CAPPED, _LOCAL, _BUDGET = range(7)
+_PHASE, _N, _EP1, _GRADED, _CAPPED, _LOCAL, _BUDGET, _CREEP_KNOWN = range(8)
 # (_BUDGET: the march's step budget, copied when the lane takes its point: read at every
 # step through the lane's point, it was a load waiting on a load; 0.8 ns a KK step.)
 # Row of the creep constants (CR) that the in-place steps read alone: Creep.ubar.
@@ -107,7 +108,8 @@ class Lanes(NamedTuple):
     LI: np.ndarray
     CR: np.ndarray      # float64 (7, LANES): creep constants (Creep's fields)
     SF: np.ndarray      # float64 (14, LANES): state and policy floats (rows above)
-    SI: np.ndarray      # int64 (7, LANES): state and policy ints and flags, step budget
+    SI: np.ndarray      # int64 (8, LANES): state and policy ints and flags, step budget,
+    #                     whether CR holds all the creep constants (_deferred_creep)
     u: np.ndarray       # float64: the state's u and w, which the stages read
     w: np.ndarray
     h: np.ndarray       # float64: the step about to be taken
@@ -153,7 +155,7 @@ def _lanes():
     live[:] = False
     return Lanes(point, live, np.empty((LANES, LAW_COLUMNS[0])),
                  np.empty((LANES, LAW_COLUMNS[1]), np.int64),
-                 np.empty((7, LANES)), np.empty((14, LANES)), np.empty((7, LANES), np.int64),
+                 np.empty((7, LANES)), np.empty((14, LANES)), np.empty((8, LANES), np.int64),
                  np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((5, LANES)),
                  np.empty((LANES, N_STAGES, 3)), np.empty(SCRATCH * LANES))
 
@@ -203,6 +205,30 @@ def _put_creep(ln, lane, k):
 
 
 @jit(inline="always")
+def _deferred_creep(ln, lane, c, ubar):
+    """A new point's creep constants in ``lane``: u-bar, which every step reads, and, where
+    kappa = 0, the others (no power); else those wait for the step whose end the creep
+    rules may judge (:func:`_creep_known`). Most lightly damped beads never come there: 3
+    pows a KK point less."""
+    if creep_kappa(c) == 0.0:
+        _put_creep(ln, lane, creep_constants_at(c, ubar))
+        ln.SI[_CREEP_KNOWN, lane] = 1
+    else:
+        ln.CR[_UBAR, lane] = ubar
+        ln.SI[_CREEP_KNOWN, lane] = 0
+
+
+@jit(inline="always")
+def _creep_known(ln, lane, c, v1, w1):
+    """``lane``'s creep constants whole where the rules may read them at the end of the step
+    just taken (ended at velocity ``v1`` and ``w1``): ``march._creep_rules_apply`` holds
+    there only with v1 + w1 >= 0, or where the damping cap may retake the step."""
+    if ln.SI[_CREEP_KNOWN, lane] == 0 and (ln.SI[_CAPPED, lane] != 0 or v1 + w1 >= 0.0):
+        _put_creep(ln, lane, creep_constants_at(c, ln.CR[_UBAR, lane]))
+        ln.SI[_CREEP_KNOWN, lane] = 1
+
+
+@jit(inline="always")
 def _creep_at(ln, lane):
     C = ln.CR
     return Creep(C[0, lane], C[1, lane], C[2, lane], C[3, lane], C[_UBAR, lane],
@@ -236,10 +262,10 @@ def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, order):
         j = order[nxt]
         i = todo[j]
         c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
-        k = creep_constants(c)
-        st = start(c, policy_at(c, steps[j], k.ubar), ln.K[lane])
+        ubar = equilibrium(c.alpha, c.gtilde)
+        st = start(c, policy_at(c, steps[j], ubar), ln.K[lane])
         put_law(ln.LF, ln.LI, lane, c)
-        _put_creep(ln, lane, k)
+        _deferred_creep(ln, lane, c, ubar)
         _put_state(ln, lane, st)
         ln.point[lane] = j
         ln.SI[_BUDGET, lane] = budget[j]
@@ -465,9 +491,11 @@ def _finished(ln, lane, K2, Q, rest_tol, e_tol, ends):
     (:func:`~sweep.kernels.march.after_stages_estimated`), its state stored, or, where its
     march ended, its Ending stored and the lane idle. Returns whether it went idle."""
     y = ln.y
+    c = law_at(ln.LF, ln.LI, lane)
+    _creep_known(ln, lane, c, ln.K[lane, N_STAGES - 1, 0], y[1, lane])
     # ln.K[lane] is a view of a borrowed array: it costs no count.
     st, end = after_stages_estimated(
-        _state(ln, lane), law_at(ln.LF, ln.LI, lane), _creep_at(ln, lane),
+        _state(ln, lane), c, _creep_at(ln, lane),
         ln.h[lane], y[0, lane], y[1, lane], y[2, lane], y[3, lane], y[4, lane],
         ln.K[lane], K2, Q, rest_tol, e_tol, ln.SI[_BUDGET, lane])
     if end.kind == GOING:

@@ -41,7 +41,7 @@ import math
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import umax_undamped
-from sweep.kernels.creep import creep_constants, never_leaves_from_start
+from sweep.kernels.creep import creep_constants, creep_kappa, never_leaves_from_start
 from sweep.kernels.special import (beta_fn, iq_quadrature, large_gtilde_constants,
                                    log_abs_gamma)
 from sweep.registry import Status
@@ -121,7 +121,7 @@ def creeps_from_start(c):
     """Heavy damping certified at tau = 0 never to leave (module docstring)."""
     # kappa < 0 (KK, Hertz, SHC) or no damping: no certificate at tau = 0, whatever the
     # constants, whose powers (2 to 4 a point) were 2% of the KK draw's time at tol 1e-8.
-    if c.gamma <= 0.0 or c.alpha + 1.0 - 2.0 * c.beta < 0.0:
+    if c.gamma <= 0.0 or creep_kappa(c) < 0.0:
         return _none()
     if not never_leaves_from_start(c, creep_constants(c)):
         return _none()
