@@ -50,7 +50,7 @@ import numpy as np
 
 from sweep.kernels._jit import jit
 from sweep.kernels.balance import ROUNDING, defect_share, q_error, swing2
-from sweep.kernels.contact import KIND_EXPONENTS
+from sweep.kernels.contact import KIND_EXPONENTS, ppow_called
 from sweep.kernels.march import CREEP, EXIT, NEGLIGIBLE, REST, SPENT, TROUGH
 from sweep.registry import Status
 
@@ -142,7 +142,9 @@ def _damping_integral(beta, kd, gamma, u_max, t_f):
     beta - 1)."""
     p = beta - 1.0
     mean = _SINE_MEANS[kd] if kd < len(_SINE_MEANS) else _sine_mean_jit(p)
-    return gamma * beta * mean * u_max ** p * t_f
+    # The code's pow-free power where u_max > 0 (within ulps of pow's: thresholds only).
+    spread = ppow_called(u_max, p, kd) if u_max > 0.0 else u_max ** p
+    return gamma * beta * mean * spread * t_f
 
 
 @jit(inline="always")
