@@ -77,14 +77,16 @@ from sweep.kernels.vmath import (VECTOR, ieq_bits, ilt_bits, vabs, vadd, vdiv, v
 
 __all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
 
-#: Points marched at once. 8: the stages of eight lanes fill the core's out-of-order window
-#: (KK stages: 74 ns a step for one point, about 25-30 ns a point for eight, before the
-#: vector groups). 12 or 16 gave the laws' draws 2-10% more but the Sobol design 4% less
-#: (more lanes idle in refinement passes and blocks' tails; docs/speed/history.md); 12
-#: again with the groups' moves as vectors: laws 0-7% more, general exponents 2-6% and the
-#: Sobol design 4% less (2026-12-05 15:50 UTC). A multiple of four: general lanes take
-#: their powers four at a time (rk_step_lanes).
-LANES = 8
+#: Points marched at once: 12, three vector groups whose stages' chains overlap. 8 (two
+#: groups) until 2026-12-05 17:55 UTC: 12 or 16 then gave the laws' draws 0-10% more but the
+#: Sobol design 4% less (more lanes idle in refinement passes and blocks' tails). Once the
+#: per-point work outside the stages had shrunk (phase 2's end on the vector path, fewer
+#: pows a point), 12 gave, one core, paired runs: KK 4.6% and TTI 7.6% less time a point,
+#: general exponents 0.6% more; two cores: KK +4-5%, TTI +6-8% (the one law whose stages
+#: wait on two nested roots), general -2%, the Sobol design -1%; 16: KK -2%, TTI -6%,
+#: general +1.5% (docs/speed/history.md). A multiple of four: general lanes take their
+#: powers four at a time (rk_step_lanes).
+LANES = 12
 if LANES % VECTOR:
     raise ImportError(f"LANES ({LANES}) must be a multiple of vmath.VECTOR ({VECTOR})")
 #: Columns of an Ending stored in a row (:func:`ending_at`).
