@@ -248,3 +248,25 @@ def test_a_bead_wrongly_predicted_to_stick_still_meets_tol(point, tol):
     err = abs(float(r.e) - e_ref)
     assert e_ref > 0.0 and int(r.status) == reference.OK
     assert float(r.e_err) <= tol and err <= tol and err <= float(r.e_err) + REF_SLACK["kk"]
+
+
+def test_the_first_marchs_share_is_its_formula_about_the_smallest_share():
+    # tol_share skips the fifth root where q is surely below Q_REF P_MIN^5; about that
+    # point the share must be clip((q / Q_REF)^(1/5), P_MIN, 1) of the q it predicts.
+    import numba
+
+    from sweep.kernels import stepsize
+    from sweep.kernels.contact import make_law
+
+    @numba.njit
+    def share_and_q(alpha, beta, gamma, gtilde):
+        c = make_law(alpha, beta, gamma, gtilde)
+        k = stepsize.q_constants(alpha, beta)
+        return stepsize.tol_share(c, k)[0], stepsize.predicted_q(c, k)
+
+    edge = stepsize.Q_REF * stepsize.P_MIN ** 5
+    for alpha, beta in ((1.5, 1.5), (1.5, 1.25), (2.3, 1.7)):
+        c0 = share_and_q(alpha, beta, 1.0, 0.0)[1]
+        for rel in np.concatenate([-np.logspace(-16, -1, 40), [0.0], np.logspace(-16, -1, 40)]):
+            p, q = share_and_q(alpha, beta, edge * (1 + rel) / c0, 0.0)
+            assert p == max((q / stepsize.Q_REF) ** 0.2, stepsize.P_MIN), (alpha, beta, q)

@@ -400,13 +400,15 @@ def _eventful_bits(ln, first, u1, w1, v1, r1, rest_tol):
              | p3 & (vle_bits(u1, 0.0) | vge_bits(v1, 0.0)))
     later = _ALL & ~p1
     creep = (later | capped) & vge_bits(vadd(v1, w1), 0.0)
-    loaded = vgt_bits(vgather(ln.LF, first * ln.LF.shape[1] + 3, ln.LF.shape[1]), 0.0)
     rest = vlt_bits(vabs(vsub(u1, ubar)), rest_tol) & vlt_bits(vabs(v1), rest_tol)
     spent = (later | _ALL & ~ieq_bits(i, _EP1 * n + first, 0)) & vgt_bits(
         vadd(vmul(v1, vsub(w1, v1)), r1), vload(ln.SF, _QS * n + first))
+    settle = rest | spent
+    if settle:
+        # Only under a load (the laws' g~, gathered where it matters: rarely).
+        settle &= vgt_bits(vgather(ln.LF, first * ln.LF.shape[1] + 3, ln.LF.shape[1]), 0.0)
     nan = vnan_bits(u1) | vnan_bits(w1) | vnan_bits(v1) | vnan_bits(r1) | vnan_bits(ubar)
-    eventful = (capped | _ALL & ~(p1 | p2 | p3) | event | creep | loaded & (rest | spent)
-                | nan)
+    eventful = capped | _ALL & ~(p1 | p2 | p3) | event | creep | settle | nan
     return eventful, crossed_only & ~eventful
 
 

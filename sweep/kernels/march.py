@@ -486,7 +486,9 @@ def _located(st, c, k, u1, w1, v1, s, n, K, K2, Q):
         # the same step: at most crossings there are none, and its location (and the
         # interpolant's coefficients) would go unused (a locate a point: 3% of its time).
         return phase, u_max, n, none
-    dense_coefficients(K, s, Q)
+    # Where the floor alone is to be located (most steps here), its interpolant needs u's
+    # coefficients alone.
+    dense_coefficients(K, s, Q, 2 if compressed or trough else 1)
     th0 = 0.0
     if compressed:
         th0, u_max = _compression_end(u, w, r, s, Q, K, K2, c)

@@ -401,9 +401,10 @@ def local_error(K, h):
 
 
 @jit(inline="always")
-def dense_coefficients(K, h, Q):
-    """Fill ``Q[c, j] = h * sum_i K[i, c] P[i, j]`` for c = u, w (the events need no q)."""
-    for c in range(2):
+def dense_coefficients(K, h, Q, components=2):
+    """Fill ``Q[c, j] = h * sum_i K[i, c] P[i, j]`` for c = u, w (the events need no q), or
+    for u alone with ``components`` 1 (an event of u alone: the floor, u-bar)."""
+    for c in range(components):
         for j in range(N_DENSE):
             s = 0.0
             for i in range(N_STAGES):

@@ -262,6 +262,9 @@ Q_REF = 0.2
 #: Smallest share: 0.2, 0.3 and 0.4 took within 1.5% of each other's steps at tol 1e-10,
 #: the one of tol 1e-6, 1e-8, 1e-10 where it binds above the integrator's floor of 16 steps.
 P_MIN = 0.3
+#: q below which ``(q / Q_REF)^(1/5)`` is surely below P_MIN (a margin far above pow's
+#: rounding): :func:`tol_share` takes P_MIN there without the root.
+_Q_FLOOR = Q_REF * P_MIN ** 5 * (1.0 - 1e-9)
 #: Predicted q (:func:`predicted_q`) from which a point is first marched at the integrator's
 #: floor (``sweep.kernels.balance.COARSE_STEPS``), a probe of a stick, where the prediction
 #: can call one (:func:`_callable`): q is at most 1/2 for a bead that leaves, and a
@@ -353,7 +356,9 @@ def tol_share(c, k):
     stick = q >= Q_STICK and _callable(c)
     if not q < Q_REF:       # NaN and inf included
         return 1.0, stick
-    return (max((q / Q_REF) ** 0.2, P_MIN) if q > 0.0 else P_MIN), stick
+    # Below _Q_FLOOR the root is below P_MIN whatever its rounding: no pow (a fifth of the
+    # KK draw's points).
+    return (max((q / Q_REF) ** 0.2, P_MIN) if q > _Q_FLOOR else P_MIN), stick
 
 
 class StepPolicy(NamedTuple):
