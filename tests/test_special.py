@@ -92,6 +92,26 @@ def test_umax_is_the_root_of_13_to_rounding(alpha):
         assert got == pytest.approx(ref, rel=rel) or got == ref == math.inf, (alpha, g, got)
 
 
+def test_umax_of_many_points_at_once_is_each_points_own_bit_for_bit():
+    # The lanes take u_M for all their points in one pass (contact.umax_undamped_many), the
+    # points' Newton iterations interleaved; each must end on its own iteration's double,
+    # at every load the scalar iteration handles (overflowing powers included) and with
+    # the points' iteration counts mixed.
+    rng = np.random.default_rng(7)
+    n = 4000
+    alpha = rng.choice([1.0, 1.25, 1.5, 2.0, 2.5, 3.0], n)
+    alpha[::3] = rng.uniform(1, 8, alpha[::3].size)
+    g = 10 ** rng.uniform(-12, 308, n)
+    g[::7] = 10 ** rng.uniform(-4, 2, g[::7].size)
+    g[::11] = 0.0
+    g[::13] = rng.uniform(1.0, 1.79, g[::13].size) * 1e308
+    ka = np.array([contact.make_law(a, a, 0.0, 0.0).ka for a in alpha], np.int64)
+    todo = rng.permutation(n)[: n - 5]
+    out = contact.umax_undamped_many(alpha, g, todo)
+    own = np.array([contact.umax_undamped(a, x, k) for a, x, k in zip(alpha, g, ka)])
+    np.testing.assert_array_equal(out, own[todo])
+
+
 @pytest.mark.parametrize("alpha", [1.0, 1.5, 3.0])
 def test_theta_agrees_with_umax(alpha):
     # (43) is the definition u_M^(a+1)/(a+1) = 1/(2 theta), with u_M the root of (13).

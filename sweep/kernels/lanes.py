@@ -64,7 +64,7 @@ from numba.extending import intrinsic
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import (LAW_COLUMNS, equilibrium, general_exponents, law_at, make_law,
-                                   put_law)
+                                   put_law, umax_undamped_many)
 from sweep.kernels.creep import ROUNDING_V, Creep, creep_constants_at, creep_kappa
 from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
                                  carry_last_stage, out_of_budget, scratch, start)
@@ -118,6 +118,7 @@ class Lanes(NamedTuple):
     y: np.ndarray       # float64 (5, LANES): its (u_new, w_new, dr), local errors of w, q
     K: np.ndarray       # float64 (LANES, N_STAGES, 3): each lane's stages
     S: np.ndarray       # float64 (SCRATCH LANES): rk_step_lanes's scratch
+    um: np.ndarray      # float64, one per entry of todo: its u_M (umax_undamped_many)
 
 
 @intrinsic
@@ -145,11 +146,11 @@ def _borrowed(a):
 def _borrow(ln):
     b = _borrowed
     return Lanes(b(ln.point), b(ln.live), b(ln.LF), b(ln.LI), b(ln.CR), b(ln.SF), b(ln.SI),
-                 b(ln.u), b(ln.w), b(ln.h), b(ln.y), b(ln.K), b(ln.S))
+                 b(ln.u), b(ln.w), b(ln.h), b(ln.y), b(ln.K), b(ln.S), b(ln.um))
 
 
 @jit(inline="always")
-def _lanes():
+def _lanes(um):
     # np.full and np.zeros would each compile an implementation of their own.
     point = np.empty(LANES, np.int64)
     point[:] = -1
@@ -159,7 +160,7 @@ def _lanes():
                  np.empty((LANES, LAW_COLUMNS[1]), np.int64),
                  np.empty((7, LANES)), np.empty((14, LANES)), np.empty((8, LANES), np.int64),
                  np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((5, LANES)),
-                 np.empty((LANES, N_STAGES, 3)), np.empty(SCRATCH * LANES))
+                 np.empty((LANES, N_STAGES, 3)), np.empty(SCRATCH * LANES), um)
 
 
 @jit(inline="always")
@@ -265,7 +266,7 @@ def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, order):
         i = todo[j]
         c = make_law(alpha[i], beta[i], gamma[i], gtilde[i])
         ubar = equilibrium(c.alpha, c.gtilde)
-        st = start(c, policy_at(c, steps[j], ubar), ln.K[lane])
+        st = start(c, policy_at(c, steps[j], ubar, ln.um[j]), ln.K[lane])
         put_law(ln.LF, ln.LI, lane, c)
         _deferred_creep(ln, lane, c, ubar)
         _put_state(ln, lane, st)
@@ -540,7 +541,9 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     """
     # One function, the step's per-lane parts written out here: every level of inlining
     # copies the march's step logic once more at compile time (seconds).
-    own = _lanes()
+    # u_M of all the points at once, called: inlined here, its loops and allocations cost
+    # the lanes' loop 3-5% (its code laid out anew).
+    own = _lanes(umax_undamped_many(alpha, gtilde, todo))
     _, K2_own, Q_own = scratch()
     b = _borrowed
     ln, K2, Q = _borrow(own), b(K2_own), b(Q_own)

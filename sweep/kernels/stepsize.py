@@ -377,15 +377,18 @@ class StepPolicy(NamedTuple):
 @jit(inline="always")
 def policy(c, steps):
     """The :class:`StepPolicy` of the point with contact law ``c`` at resolution ``steps``."""
-    return policy_at(c, steps, equilibrium(c.alpha, c.gtilde))
+    return policy_at(c, steps, equilibrium(c.alpha, c.gtilde),
+                     umax_undamped(c.alpha, c.gtilde, c.ka))
 
 
 # Called, not inlined: once per march (compile time).
 @jit()
-def policy_at(c, steps, ubar):
-    """:func:`policy` given ``ubar``, the law's :func:`~sweep.kernels.contact.equilibrium`
-    (a pow less a march where the caller has it, as the lanes do in the creep constants)."""
-    um = umax_undamped(c.alpha, c.gtilde, c.ka)
+def policy_at(c, steps, ubar, um):
+    """:func:`policy` given ``ubar`` and ``um``, the law's
+    :func:`~sweep.kernels.contact.equilibrium` and
+    :func:`~sweep.kernels.contact.umax_undamped`: the lanes have the one from the creep
+    constants and the other for all their points at once
+    (:func:`~sweep.kernels.contact.umax_undamped_many`)."""
     omega = elastic_frequency(c.alpha, um)
     depth = _depth_factor(ubar, c.alpha, c.gtilde)
     h = base_step(omega, depth, steps)
