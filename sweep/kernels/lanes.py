@@ -55,6 +55,7 @@ stepper, stepsize, march, vmath.
 """
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numba
@@ -217,7 +218,9 @@ def _deferred_creep(ln, lane, c, ubar):
         _put_creep(ln, lane, creep_constants_at(c, ubar))
         ln.SI[_CREEP_KNOWN, lane] = 1
     else:
-        ln.CR[_UBAR, lane] = ubar
+        # NaN until they are known, not the lane's previous point's.
+        nan = math.nan
+        _put_creep(ln, lane, Creep(nan, nan, nan, nan, ubar, nan, nan))
         ln.SI[_CREEP_KNOWN, lane] = 0
 
 
