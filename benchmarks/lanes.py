@@ -87,7 +87,7 @@ def all_lanes(n, gamma, gtilde):
         c = make_law(1.5, 1.5, (1.0 + 0.1 * l) * gamma, gtilde)
         put_law(LF, LI, l, c)
         K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = rhs(u[l], w[l], c)
-    vec = vector_groups(LF, LI, S, 0, (1 << LANES) - 1)
+    vec = vector_groups(LF, LI, S)
     fresh = (1 << LANES) - 1      # the first stages are in K at the start
     acc = 0.0
     for _ in range(n // LANES):

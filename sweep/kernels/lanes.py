@@ -340,12 +340,12 @@ def _lanes_of(groups):
 
 
 @jit(inline="always")
-def _regrouped(ln, vec, fresh, taken):
-    """The :func:`~sweep.kernels.stepper.vector_groups` of the lanes after those of the bits
-    ``taken`` took points (``vec`` before) and the lanes whose first stage is in K
-    (``fresh`` before): the lanes of a group that turned vector are (their steps carried it
-    in K so far); those of a group that did not stay vector get theirs from the scratch."""
-    now = vector_groups(ln.LF, ln.LI, ln.S, vec, taken)
+def _regrouped(ln, vec, fresh):
+    """The :func:`~sweep.kernels.stepper.vector_groups` of the lanes after they took
+    points (``vec`` before) and the lanes whose first stage is in K (``fresh`` before):
+    the lanes of a group that turned vector are (their steps carried it in K so far); those
+    of a group that did not stay vector get theirs from the scratch."""
+    now = vector_groups(ln.LF, ln.LI, ln.S)
     out = _lanes_of(vec & ~now) & ~fresh
     for lane in range(LANES):
         if out >> lane & 1:
@@ -553,8 +553,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     ends = b(ends)     # the others are read once per point
     order = _general_first(alpha, beta, todo)
     nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps, budget, order)
-    # Again whenever lanes take points (_regrouped).
-    vec = vector_groups(ln.LF, ln.LI, ln.S, 0, _EVERY_LANE)
+    vec = vector_groups(ln.LF, ln.LI, ln.S)    # again whenever lanes take points
     fresh = _EVERY_LANE     # lanes whose first stage is in K, not in the scratch
     while _any(ln.live):
         idle = False
@@ -579,8 +578,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
         if idle:
             was = _live_lanes(ln)
             nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, order)
-            taken = _live_lanes(ln) & ~was
-            fresh |= taken          # new points: their first stage in K
-            vec, fresh = _regrouped(ln, vec, fresh, taken)
+            fresh |= _live_lanes(ln) & ~was          # new points: their first stage in K
+            vec, fresh = _regrouped(ln, vec, fresh)
     # The owners live until the borrowed views are done with.
     own.live[0] = K2_own[0, 0] == Q_own[0, 0]

@@ -201,21 +201,16 @@ def rk_step_lanes(u, w, h, K, LF, LI, live, y, S, vec, fresh):
 
 # Called, not inlined: once per refill of the lanes, and each inlined copy cost compile time.
 @jit(counted=False)
-def vector_groups(LF, LI, S, vec, changed):
+def vector_groups(LF, LI, S):
     """Bit ``first`` set for each group of :data:`~sweep.kernels.vmath.VECTOR` lanes
     ``first ..`` whose laws (rows of ``LF, LI``) all take
     :func:`~sweep.kernels.contact.rhs_vector`: :func:`rk_step_lanes` forms their stages as
     vectors. Idle lanes count too: their results are not read. Those groups' laws are
     stored in ``S`` (:func:`_vectors_in`): a lane's law changes only where it takes a
-    point, so the caller runs this then, not at every step, with ``changed`` the bits of
-    the lanes whose laws changed since ``vec`` was judged (every lane at first): the other
-    groups keep their bits of ``vec`` and their laws in ``S`` (judged again, they were
-    1.3% of the KK draw's time)."""
+    point, so the caller runs this then, not at every step."""
+    vec = 0
     n = LI.shape[0]
     for first in range(0, n, VECTOR):
-        if not changed >> first & (1 << VECTOR) - 1:
-            continue
-        vec &= ~(1 << first)
         ok = True
         for lane in range(first, first + VECTOR):
             ok = ok and vector_law_at(LI, lane)
