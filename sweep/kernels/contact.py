@@ -31,7 +31,7 @@ __all__ = ["Law", "make_law", "put_law", "law_at", "LAW_COLUMNS", "rhs_at", "pow
            "damping_rate", "equilibrium", "well_depth", "well_depth_at", "damping_ratio",
            "overdamped_at_rest", "natural_frequency", "umax_undamped", "umax_undamped_many",
            "elastic_frequency", "in_domain", "KIND_ONE", "KIND_EXPONENTS", "general_exponents",
-           "general_at", "general_arguments", "rhs_general", "gtilde_at", "vector_law_at",
+           "general_at", "general_arguments", "rhs_general", "gtilde_rows", "vector_law_at",
            "vector_law", "rhs_vector"]
 
 # Exponents of the report's models get a pow-free evaluation: pow() dominates the cost of a
@@ -134,9 +134,10 @@ def law_at(F, I, row):
 
 
 @jit(inline="always")
-def gtilde_at(F, row):
-    """The load g~ of the law in ``row`` of ``F`` (:func:`put_law`), alone."""
-    return F[row, 3]
+def gtilde_rows(F, first):
+    """The loads g~ of the :data:`~sweep.kernels.vmath.VECTOR` laws in the rows of ``F``
+    from ``first`` (:func:`put_law`), alone, as a tuple (a vector operand)."""
+    return _column(F, first, 3)
 
 
 @jit(inline="always")
@@ -338,7 +339,7 @@ def vector_law(F, I, first):
     ``first`` (:func:`put_law`) as tuples, one element a row, for :func:`rhs_vector`:
     ``(code, beta, gamma, g~)``, the codes as float64."""
     return ((_code(I, first), _code(I, first + 1), _code(I, first + 2), _code(I, first + 3)),
-            _column(F, first, 1), _column(F, first, 2), _column(F, first, 3))
+            _column(F, first, 1), _column(F, first, 2), gtilde_rows(F, first))
 
 
 @jit(inline="always")
@@ -447,8 +448,15 @@ def damping_ratio(alpha, beta, gamma, gtilde):
 
         xi = gamma beta / (2 sqrt(alpha)) g~^((2 beta - alpha - 1) / (2 alpha))
     """
-    return (gamma * beta / (2.0 * math.sqrt(alpha))
-            * gtilde ** ((2.0 * beta - alpha - 1.0) / (2.0 * alpha)))
+    scale, x = _damping_ratio_terms(alpha, beta, gamma)
+    return scale * gtilde ** x
+
+
+@jit(inline="always")
+def _damping_ratio_terms(alpha, beta, gamma):
+    """``(gamma beta / (2 sqrt(alpha)), (2 beta - alpha - 1) / (2 alpha))``: the damping
+    ratio is the first times g~ to the second."""
+    return gamma * beta / (2.0 * math.sqrt(alpha)), (2.0 * beta - alpha - 1.0) / (2.0 * alpha)
 
 
 @jit(inline="always")
@@ -460,11 +468,10 @@ def overdamped_at_rest(alpha, beta, gamma, gtilde):
     points (1.5% of the KK draw's time at tol 1e-8)."""
     if not gtilde > 0.0:
         return False
-    x = (2.0 * beta - alpha - 1.0) / (2.0 * alpha)
-    if abs(x) <= 1.0 and gamma * beta / (2.0 * math.sqrt(alpha)) * max(
-            gtilde, 1.0 / gtilde) < 0.999:
+    scale, x = _damping_ratio_terms(alpha, beta, gamma)
+    if abs(x) <= 1.0 and scale * max(gtilde, 1.0 / gtilde) < 0.999:
         return False
-    return damping_ratio(alpha, beta, gamma, gtilde) >= 1.0
+    return scale * gtilde ** x >= 1.0
 
 
 # Called, not inlined: its helpers are inlined once, not at each of its callers (compile

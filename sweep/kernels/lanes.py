@@ -64,17 +64,17 @@ from numba.core import types
 from numba.extending import intrinsic
 
 from sweep.kernels._jit import jit
-from sweep.kernels.contact import (LAW_COLUMNS, equilibrium, general_exponents, law_at, make_law,
-                                   put_law, umax_undamped_many)
+from sweep.kernels.contact import (LAW_COLUMNS, equilibrium, general_exponents, gtilde_rows,
+                                   law_at, make_law, put_law, umax_undamped_many)
 from sweep.kernels.creep import ROUNDING_V, Creep, creep_constants_at, creep_kappa
 from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
                                  carry_last_stage, out_of_budget, scratch, start)
 from sweep.kernels.stepper import (N_STAGES, SCRATCH, carry_in_scratch, rk_step_lanes,
                                    stages_out, vector_groups)
 from sweep.kernels.stepsize import StepPolicy, first_guess, policy_at
-from sweep.kernels.vmath import (VECTOR, ieq_bits, ilt_bits, vabs, vadd, vdiv, veq_bits,
-                                 vgather, vge_bits, vgt_bits, vle_bits, vload, vlt_bits, vmul,
-                                 vnan_bits, vselect_bits, vstore, vsub)
+from sweep.kernels.vmath import (EVERY_ELEMENT, VECTOR, ieq_bits, ilt_bits, vabs, vadd, vdiv,
+                                 veq_bits, vgather, vge_bits, vgt_bits, vle_bits, vload, vlt_bits,
+                                 vmul, vnan_bits, vselect_bits, vstore, vsub)
 
 __all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
 
@@ -306,7 +306,7 @@ def _any(live):
     return False
 
 
-_ALL = (1 << VECTOR) - 1
+_ALL = EVERY_ELEMENT
 _EVERY_LANE = (1 << LANES) - 1
 
 
@@ -410,7 +410,7 @@ def _eventful_bits(ln, first, u1, w1, v1, r1, rest_tol):
     settle = rest | spent
     if settle:
         # Only under a load (the laws' g~, gathered where it matters: rarely).
-        settle &= vgt_bits(vgather(ln.LF, first * ln.LF.shape[1] + 3, ln.LF.shape[1]), 0.0)
+        settle &= vgt_bits(gtilde_rows(ln.LF, first), 0.0)
     nan = vnan_bits(u1) | vnan_bits(w1) | vnan_bits(v1) | vnan_bits(r1) | vnan_bits(ubar)
     eventful = capped | _ALL & ~(p1 | p2 | p3) | event | creep | settle | nan
     return eventful, crossed_only & ~eventful

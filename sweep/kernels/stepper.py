@@ -19,7 +19,7 @@ from sweep.kernels._jit import jit
 from sweep.kernels.contact import (general_arguments, general_at, rhs, rhs_at, rhs_called,
                                    rhs_general, rhs_vector, vector_law, vector_law_at)
 from sweep.kernels.tableau import DORMAND_PRINCE_54
-from sweep.kernels.vmath import (VECTOR, exp4, log4, vadd, vdot, vgather, vload, vmul, vpack,
+from sweep.kernels.vmath import (EVERY_ELEMENT, VECTOR, exp4, log4, vadd, vdot, vgather, vload, vmul, vpack,
                                  vselect_bits, vstore)
 
 __all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "SCRATCH", "vector_groups",
@@ -239,7 +239,7 @@ def _vectors_in(vec, fresh, u, w, h, K, S):
         if vec >> first & 1:
             # Gathered element by element (vgather): the lanes' steps store them so.
             stride = K.shape[1] * K.shape[2]
-            bits = fresh >> first & (1 << VECTOR) - 1
+            bits = fresh >> first & EVERY_ELEMENT
             if bits:
                 for c in range(3):
                     vstore(S, c * n + first, vselect_bits(

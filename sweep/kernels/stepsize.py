@@ -386,8 +386,8 @@ def policy(c, steps):
 def policy_at(c, steps, ubar, um):
     """:func:`policy` given ``ubar`` and ``um``, the law's
     :func:`~sweep.kernels.contact.equilibrium` and
-    :func:`~sweep.kernels.contact.umax_undamped`: the lanes have the one from the creep
-    constants and the other for all their points at once
+    :func:`~sweep.kernels.contact.umax_undamped`: the lanes share the one with their creep
+    constants and take the other for all their points at once
     (:func:`~sweep.kernels.contact.umax_undamped_many`)."""
     omega = elastic_frequency(c.alpha, um)
     depth = _depth_factor(ubar, c.alpha, c.gtilde)

@@ -56,7 +56,7 @@ from numba.extending import intrinsic, register_model
 from sweep.kernels._jit import jit
 
 __all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log4", "exp4", "expm1_4", "sqrt_div4", "HAS",
-           "VECTOR", "Vector", "vector", "vpack", "vtuple", "vadd", "vsub", "vmul", "vdiv",
+           "VECTOR", "EVERY_ELEMENT", "Vector", "vector", "vpack", "vtuple", "vadd", "vsub", "vmul", "vdiv",
            "vsqrt", "vabs", "vwhere_positive", "vwhere_nonnegative", "vwhere_equal",
            "vsqrt_where_equal", "vlt_bits", "vle_bits", "vgt_bits", "vge_bits", "veq_bits",
            "vnan_bits", "vselect_bits", "ieq_bits", "ilt_bits", "vload", "vstore", "vscatter",
@@ -240,6 +240,8 @@ def _pack(builder, vt, values, pad=None):
 #: lanes, their stages unrolled, cost 2-3 s more of first compile for no speed on KK
 #: (docs/speed/history.md, 2026-12-05).
 VECTOR = 4
+#: The bit mask of a whole vector (the ``*_bits`` comparisons set bit k for element k).
+EVERY_ELEMENT = (1 << VECTOR) - 1
 _VT = ir.VectorType(ir.DoubleType(), VECTOR)
 _CONTRACT = ("contract",)
 _I32 = ir.IntType(32)
