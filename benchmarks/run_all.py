@@ -20,7 +20,9 @@ Figures (``name``; the target is issue 10's, "on this 2-core machine"):
 * ``sobol_1m_end_to_end``: ``sweep run configs/sobol_1m.toml`` in a subprocess after a warm-up
   run (warm kernel cache); points / ``run_time_s`` (the chunks' wall time: kernels, design,
   saving, writing; read from the output file), the process's wall time beside it.
-* ``sobol_1m_threads_2v1``: the same run with ``NUMBA_NUM_THREADS=2`` over ``=1``.
+* ``sobol_1m_threads_2v1``: the same run with ``NUMBA_NUM_THREADS=2`` over ``=1``; beside it
+  the two runs' ``kernel_time_s`` and their ratio (the kernels alone, inside the runs: the
+  background writer's zlib takes its CPU from them on two threads, from the idle core on one).
 * ``startup_compile_fresh``: a fresh process with an empty kernel cache (``NUMBA_CACHE_DIR``
   a new temporary directory) calls every method of ``sweep.METHODS`` once with scalars
   (serial kernels) and once on 4,096 points (parallel kernels), then the integrator for
@@ -220,7 +222,10 @@ def sobol_figures(args, machine):
     e2e = line("sobol_1m_end_to_end", rate, machine, args.sobol_n, everyone,
                process_wall_s=wall, **{k: float(v) for k, v in attrs.items()})
     spd = line("sobol_1m_threads_2v1", runs[2][0] / runs[1][0], machine, args.sobol_n, 2,
-               points_per_second_1=runs[1][0], points_per_second_2=runs[2][0])
+               points_per_second_1=runs[1][0], points_per_second_2=runs[2][0],
+               kernel_time_s_1=float(runs[1][2]["kernel_time_s"]),
+               kernel_time_s_2=float(runs[2][2]["kernel_time_s"]),
+               kernels_2v1=float(runs[1][2]["kernel_time_s"] / runs[2][2]["kernel_time_s"]))
     return [e2e, spd]
 
 
