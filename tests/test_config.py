@@ -113,6 +113,8 @@ chunk_size = 100
     assert cfg.method_options("ord2_approx") == {"n": 11}
     assert cfg.method_options("ord1") == {}
     assert cfg.chunk_size == 100
+    assert cfg.compress is True
+    assert config.loads(GRID + "[run]\ncompress = false").compress is False
 
 
 def _err(text):
@@ -208,6 +210,8 @@ def test_doe_needs_a_sampled_axis_and_lhs_size_limit():
     ("[options.ord2_approx]\nn = 21", ["options.ord2_approx", "does not compute", "ord1"]),
     ("[run]\nchunk_size = 0", ["run.chunk_size", "from 1 to", "0"]),
     ("[run]\nchunk_size = 9223372036854775808", ["run.chunk_size", "9223372036854775808"]),
+    ("[run]\ncompress = 1", ["run.compress", "true or false", "1"]),
+    ("[run]\ncompres = false", ["run.compres", "did you mean 'compress'"]),
 ])
 def test_other_table_errors(extra, expected):
     msg = _err(GRID + extra)

@@ -1,4 +1,5 @@
 """Chunked execution, only-requested outputs, resume and determinism (sweep.sweeps.runner)."""
+import time
 import warnings
 
 import numba
@@ -223,6 +224,45 @@ def test_a_writer_error_surfaces_and_the_run_can_resume(tmp_path, monkeypatch):
     run(GRID, out)
     run(GRID, tmp_path / "ref.nc")
     xr.testing.assert_identical(opened(tmp_path / "ref.nc"), opened(out))
+
+
+def _filters(path):
+    """{variable: netCDF4's filters()} of a file's point variables."""
+    import netCDF4
+
+    with netCDF4.Dataset(path) as nc:
+        return {k: v.filters() for k, v in nc.variables.items() if v.dimensions == ("point",)}
+
+
+def test_compress_false_stores_the_same_values_as_computed(tmp_path):
+    run(DOE, tmp_path / "z.nc")
+    run(DOE.replace("chunk_size = 16", "chunk_size = 16\ncompress = false"),
+        tmp_path / "raw.nc")
+    deflated, stored = _filters(tmp_path / "z.nc"), _filters(tmp_path / "raw.nc")
+    assert set(deflated) == set(stored) >= {"status", "error_ord1", "alpha", "gtilde"}
+    assert not any(f["zlib"] or f["shuffle"] for f in stored.values())
+    # The coordinates of a Sobol design: deflate with shuffle saves most of their bytes.
+    assert deflated["alpha"]["zlib"] and deflated["alpha"]["shuffle"]
+    xr.testing.assert_equal(opened(tmp_path / "z.nc"), opened(tmp_path / "raw.nc"))
+
+
+@pytest.mark.parametrize("compress", [True, False])
+def test_a_run_held_back_by_its_compressing_writer_says_so(tmp_path, monkeypatch, capsys,
+                                                           compress):
+    real = store.NetCDFWriter.write
+
+    def slow(self, *args):
+        time.sleep(0.05)       # a writer far slower than this design's chunks
+        return real(self, *args)
+
+    monkeypatch.setattr(store.NetCDFWriter, "write", slow)
+    monkeypatch.setattr(runner, "WRITER_HINT_SECONDS", 0.1)     # this design's scale
+    text = DOE if compress else DOE.replace("chunk_size = 16", "chunk_size = 16\ncompress = false")
+    res = run(text, tmp_path / "out.nc", quiet=False)
+    # 7 chunks: the run waits for about every one's writing but the first.
+    assert res.writer_wait_seconds > 0.25
+    said = "compress = false in the configuration's [run] table" in capsys.readouterr().err
+    assert said == compress
 
 
 def test_resume_with_another_configuration_is_refused(tmp_path, monkeypatch):

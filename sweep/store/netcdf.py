@@ -36,7 +36,7 @@ from sweep.store.schema import (Variable, cast_exactly, chunk_values, dataset_va
                                 stored_attr)
 
 __all__ = ["NetCDFWriter", "commit", "same_file", "CHUNK_CACHE_BYTES", "STORAGE_CHUNK",
-           "COMPLEVEL", "CHECKSUM", "SUFFIXES", "deflate_filters"]
+           "COMPLEVEL", "CHECKSUM", "SUFFIXES", "STORED", "deflate_filters"]
 
 #: File name suffixes of the outputs this backend writes. Any other suffix is refused
 #: rather than written as netCDF under a misleading name (``out.zarr`` would be HDF5).
@@ -74,6 +74,8 @@ TRIAL_PIECES = 4
 #: small last chunk arriving first from a Dask cluster): such a trial keeps the default,
 #: deflate with shuffle.
 TRIAL_MIN_BYTES = 2 ** 12
+#: createVariable's keywords for a variable stored as computed.
+STORED = {"zlib": False, "shuffle": False}
 
 
 def deflate_filters(values: np.ndarray) -> dict:
@@ -108,7 +110,7 @@ def deflate_filters(values: np.ndarray) -> dict:
     plain = len(zlib.compress(raw.tobytes(), COMPLEVEL))
     shuffled = len(zlib.compress(raw.reshape(-1, size).T.tobytes(), COMPLEVEL))
     if min(plain, shuffled) > (1 - MIN_DEFLATE_SAVING) * raw.size:
-        return {"zlib": False, "shuffle": False}
+        return dict(STORED)
     return {"zlib": True, "complevel": COMPLEVEL, "shuffle": shuffled < plain}
 
 
@@ -136,13 +138,20 @@ class NetCDFWriter:
         Names of the stored variables (see :func:`sweep.store.metadata.variable_spec`).
     attrs : dict
         Global attributes known at the start (more can be set before :meth:`close`).
+    compress : bool
+        Deflate each computed variable where a trial on its first chunk says it pays
+        (:func:`deflate_filters`); False: every variable stored as computed. The zlib work
+        runs in the writing thread: about a second of a core a million points of
+        ``configs/sobol_1m.toml``, which bounds a run on many cores
+        (:data:`MIN_DEFLATE_SAVING`).
     """
 
     def __init__(self, path: str | os.PathLike, layout: Layout, variables: Sequence[str],
-                 attrs: Mapping[str, Any] | None = None) -> None:
+                 attrs: Mapping[str, Any] | None = None, compress: bool = True) -> None:
         self.path = Path(path)
         self.layout = layout
         self.variables = tuple(variables)
+        self.compress = compress
         # netCDF reports any failure to create a file as EACCES, "Permission denied" (no
         # free inode included): create it here, where the OSError carries the system's own
         # errno and the file's name; netCDF then overwrites the empty file.
@@ -176,7 +185,8 @@ class NetCDFWriter:
         deferred, self._deferred = self._deferred, []
         for var in deferred:
             sample = values.get(var.name, np.empty(0, var.dtype))
-            self._create(var, self._chunks, deflate_filters(sample))
+            filters = deflate_filters(sample) if self.compress else dict(STORED)
+            self._create(var, self._chunks, filters)
 
     def _constant(self, var: Variable) -> None:
         """A variable written once, here: an axis or a constant of the layout."""

@@ -71,6 +71,8 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
 
     [run]
     chunk_size = 131072            # points per chunk (resume and progress granularity)
+    compress = true                # deflate each computed variable where it pays; false:
+                                   # stored as computed (a larger file, no writer CPU)
 
 Methods, their options, output fields and parameter domains are read from
 :mod:`sweep.registry` when a configuration is parsed, so a method registered there is
@@ -928,6 +930,9 @@ class Config:
     sha256 : str
         Hash of the canonical (parsed, key-sorted) configuration: comments and formatting do
         not change it, any value does. Resume compares it.
+    compress : bool
+        ``run.compress``: whether the file's computed variables are deflated where it pays
+        (:func:`sweep.store.netcdf.deflate_filters`) or stored as computed.
     """
 
     text: str
@@ -940,6 +945,7 @@ class Config:
     options: dict
     chunk_size: int
     sha256: str
+    compress: bool = True
 
     @property
     def size(self):
@@ -982,12 +988,13 @@ def loads(text, source=""):
     options = _parse_options(root.table("options"), outputs)
     run = root.table("run")
     chunk_size = run.get("chunk_size", is_chunk_size, CHUNK_SIZE_RULE, DEFAULT_CHUNK_SIZE)
+    compress = run.get("compress", lambda v: isinstance(v, bool), "true or false", True)
     run.finish()
     root.finish()
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
     return Config(text=text, source=str(source), title=title, description=description,
                   design=design_spec, outputs=outputs, integrator=integrator, options=options,
-                  chunk_size=chunk_size,
+                  chunk_size=chunk_size, compress=compress,
                   sha256=hashlib.sha256(canonical.encode()).hexdigest())
 
 

@@ -254,6 +254,10 @@ class RunResult:
         Points of the whole dataset whose e needs a caveat, by name of
         :data:`sweep.store.CAVEAT_ATTRS` (resumed chunks included; empty where nothing was
         computed or resumed).
+    writer_wait_seconds : float
+        Time the chunks and the file's completion waited for the background writer [s]:
+        where it is a large share of ``wall_seconds``, the writer's zlib, one thread for
+        every core, set the pace (the run says so, :data:`WRITER_HINT_SHARE`).
     """
 
     output: Path | None
@@ -270,6 +274,7 @@ class RunResult:
     cleanup_interrupted: bool = False
     compile_seconds: float | None = None
     caveats: dict = dataclasses.field(default_factory=dict)
+    writer_wait_seconds: float = 0.0
 
     @property
     def points_per_second(self) -> float:
@@ -601,19 +606,26 @@ class _WriteBehind:
         self._pending = collections.deque()
         self._pool = concurrent.futures.ThreadPoolExecutor(
             max_workers=1, thread_name_prefix="sweep-writer")
+        #: Seconds :meth:`write` and :meth:`drain` waited for the writer.
+        self.waited = 0.0
 
     def write(self, *args):
         if self._depth == 0:
             self._writer.write(*args)
             return
-        while len(self._pending) >= self._depth:
-            self._pending.popleft().result()
+        if len(self._pending) >= self._depth:
+            t0 = time.perf_counter()
+            while len(self._pending) >= self._depth:
+                self._pending.popleft().result()
+            self.waited += time.perf_counter() - t0
         self._pending.append(self._pool.submit(self._writer.write, *args))
 
     def drain(self):
         """Wait until every submitted chunk is written (re-raising a writer error)."""
+        t0 = time.perf_counter()
         while self._pending:
             self._pending.popleft().result()
+        self.waited += time.perf_counter() - t0
 
     def shutdown(self):
         for fut in self._pending:
@@ -953,8 +965,30 @@ def _report(job, t_start):
     what = f"wrote {job.output}" if job.output is not None else "computed in memory"
     job.log(f"{what}: {count(job.design.size, 'point')} ({result.computed_points:,} "
             f"computed) in {result.wall_seconds:.1f} s, {rate(result.points_per_second)}")
+    _say_if_writer_bound(job)
     _warn_caveats(job)
     return result
+
+
+#: A run that waited for its compressing background writer more than this share of its wall
+#: time, and at least WRITER_HINT_SECONDS, says that the writer's zlib set its pace.
+WRITER_HINT_SHARE = 0.1
+WRITER_HINT_SECONDS = 1.0
+
+
+def _say_if_writer_bound(job):
+    """Name ``run.compress`` where the chunks waited long for a compressing writer: its
+    zlib runs in one thread, however many cores compute (about a second of a core a
+    million points of configs/sobol_1m.toml)."""
+    result = job.result
+    waited = result.writer_wait_seconds
+    if not (job.cfg.compress and waited >= WRITER_HINT_SECONDS
+            and waited > WRITER_HINT_SHARE * result.wall_seconds):
+        return
+    job.log(f"the chunks waited {result.writer_wait_seconds:.1f} s of "
+            f"{result.wall_seconds:.1f} s for the writer, whose compression runs in one "
+            "thread: compress = false in the configuration's [run] table stores the "
+            "variables as computed (a larger file, written faster)")
 
 
 def _applicable(plan, counts):
@@ -1148,6 +1182,7 @@ def _timing_attrs(job, totals, scheduler):
 def _finish(job, partial, writer, behind, totals, scheduler):
     """Step 6: complete the file (timing attributes), publish it atomically, clean up."""
     behind.drain()
+    job.result.writer_wait_seconds = behind.waited
     job.result.chunks = len(job.chunks)
     writer.set_attrs({**_timing_attrs(job, totals, scheduler), **job.result.caveats})
     writer.close()
@@ -1214,7 +1249,8 @@ def _write_output(job, partial, done, quiet, client, scheduler):
     try:
         attrs = _static_attrs(job.cfg, job.design, job.plan, job.chunk_size)
         attrs.update(_provenance_attrs(job, scheduler, attrs["date_created"]))
-        writer = store.NetCDFWriter(partial.assembling, job.layout, job.plan.variables, attrs)
+        writer = store.NetCDFWriter(partial.assembling, job.layout, job.plan.variables, attrs,
+                                    compress=job.cfg.compress)
         behind = _WriteBehind(writer, depth=WRITE_BEHIND)
         job.result.compile_seconds = _warm_up(job, done, client)
         totals = _stream_chunks(job, partial, done, behind, quiet, client)
