@@ -265,6 +265,27 @@ def test_a_run_held_back_by_its_compressing_writer_says_so(tmp_path, monkeypatch
     assert said == compress
 
 
+def test_a_resumed_run_waiting_for_its_writer_says_nothing_of_compress(tmp_path, monkeypatch,
+                                                                       capsys):
+    # Its copied chunks wait for the writer by nature, and the advice would not resume.
+    out = tmp_path / "out.nc"
+    with monkeypatch.context() as m:
+        interrupt_after(m, 5)
+        with pytest.raises(KeyboardInterrupt):
+            run(DOE, out)
+    real = store.NetCDFWriter.write
+
+    def slow(self, *args):
+        time.sleep(0.05)
+        return real(self, *args)
+
+    monkeypatch.setattr(store.NetCDFWriter, "write", slow)
+    monkeypatch.setattr(runner, "WRITER_HINT_SECONDS", 0.1)
+    res = run(DOE, out, quiet=False)
+    assert res.resumed_chunks == 5 and res.writer_wait_seconds > 0.25
+    assert "compress = false" not in capsys.readouterr().err
+
+
 def test_resume_with_another_configuration_is_refused(tmp_path, monkeypatch):
     out = tmp_path / "out.nc"
     with monkeypatch.context() as m:

@@ -979,10 +979,11 @@ WRITER_HINT_SECONDS = 1.0
 def _say_if_writer_bound(job):
     """Name ``run.compress`` where the chunks waited long for a compressing writer: its
     zlib runs in one thread, however many cores compute (about a second of a core a
-    million points of configs/sobol_1m.toml)."""
+    million points of configs/sobol_1m.toml). Not after a resume, whose copied chunks
+    wait for the writer by nature (and a changed configuration would not resume)."""
     result = job.result
     waited = result.writer_wait_seconds
-    if not (job.cfg.compress and waited >= WRITER_HINT_SECONDS
+    if not (job.cfg.compress and not result.resumed_chunks and waited >= WRITER_HINT_SECONDS
             and waited > WRITER_HINT_SHARE * result.wall_seconds):
         return
     job.log(f"the chunks waited {result.writer_wait_seconds:.1f} s of "
