@@ -170,7 +170,7 @@ def test_restart_under_someone_elses_lock_touches_nothing(tmp_path, monkeypatch,
 GATED = """
 import os, sys, time
 import sweep.sweeps.runner as r
-r.WRITE_BEHIND = 0
+r.WRITE_BEHIND = r.SAVE_BEHIND = 0      # the partial state settled when the gate opens
 real, count = r.compute_chunk, [0]
 def gated(*a):
     if count[0] == 3:

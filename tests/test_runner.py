@@ -286,6 +286,44 @@ def test_a_resumed_run_waiting_for_its_writer_says_nothing_of_compress(tmp_path,
     assert "compress = false" not in capsys.readouterr().err
 
 
+def _slow_saves(monkeypatch, seconds=0.2):
+    real = store.PartialStore.save_chunk
+
+    def slow(self, *args):
+        time.sleep(seconds)      # still saving when the next chunk is handed over
+        return real(self, *args)
+
+    monkeypatch.setattr(store.PartialStore, "save_chunk", slow)
+
+
+def test_an_interrupted_run_keeps_the_chunk_still_being_saved(tmp_path, monkeypatch, capsys):
+    # Chunks are saved one behind, in a thread: the interruption waits for that save.
+    _slow_saves(monkeypatch)
+    interrupt_after(monkeypatch, 3)
+    out = tmp_path / "out.nc"
+    with pytest.raises(KeyboardInterrupt):
+        run(DOE, out, quiet=False)
+    assert len(list((tmp_path / "out.nc.partial").glob("chunk_*.npz"))) == 3
+    assert "interrupted: 3 of 7 chunks saved" in capsys.readouterr().err
+
+
+def test_a_failed_run_keeps_the_chunk_still_being_saved(tmp_path, monkeypatch):
+    _slow_saves(monkeypatch)
+    real, calls = store.NetCDFWriter.write, [0]
+
+    def failing(self, *args):
+        calls[0] += 1
+        if calls[0] == 3:
+            raise OSError("disk full")
+        return real(self, *args)
+
+    monkeypatch.setattr(store.NetCDFWriter, "write", failing)
+    monkeypatch.setattr(runner, "WRITE_BEHIND", 0)     # the error at the third chunk's write
+    with pytest.raises(runner.RunError, match="disk full; the 3 finished chunks are kept"):
+        run(DOE, tmp_path / "out.nc")
+    assert len(list((tmp_path / "out.nc.partial").glob("chunk_*.npz"))) == 3
+
+
 def test_resume_with_another_configuration_is_refused(tmp_path, monkeypatch):
     out = tmp_path / "out.nc"
     with monkeypatch.context() as m:
