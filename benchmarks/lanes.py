@@ -27,7 +27,7 @@ from sweep.kernels.contact import LAW_COLUMNS, make_law, put_law, rhs
 from sweep.kernels.lanes import LANES
 from sweep.kernels.stepper import (N_STAGES, SCRATCH, carry_in_scratch, rk_combine, rk_stage,
                                    rk_step_lanes, vector_groups)
-from sweep.kernels.vmath import VECTOR
+from sweep.kernels.vmath import EVERY_ELEMENT, VECTOR
 
 _H = 1e-9      # a tiny step keeps the state, and so the work per stage, the same throughout
 
@@ -96,7 +96,7 @@ def all_lanes(n, gamma, gtilde):
         for first in range(0, LANES, VECTOR):
             if vec >> first & 1:
                 # A vector group's stages stay in the scratch: carried there, as lanes does.
-                carry_in_scratch(S, first, (1 << VECTOR) - 1)
+                carry_in_scratch(S, first, EVERY_ELEMENT)
             else:
                 for l in range(first, first + VECTOR):
                     K[l, 0, 0], K[l, 0, 1], K[l, 0, 2] = K[l, 6, 0], K[l, 6, 1], K[l, 6, 2]

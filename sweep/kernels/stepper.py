@@ -19,8 +19,8 @@ from sweep.kernels._jit import jit
 from sweep.kernels.contact import (general_arguments, general_at, rhs, rhs_at, rhs_called,
                                    rhs_general, rhs_vector, vector_law, vector_law_at)
 from sweep.kernels.tableau import DORMAND_PRINCE_54
-from sweep.kernels.vmath import (EVERY_ELEMENT, VECTOR, exp4, log4, vadd, vdot, vgather, vload, vmul, vpack,
-                                 vselect_bits, vstore)
+from sweep.kernels.vmath import (EVERY_ELEMENT, VECTOR, exp4, log4, vadd, vdot, vgather, vload,
+                                 vmul, vpack, vselect_bits, vstore)
 
 __all__ = ["rk_step", "rk_step_inline", "rk_step_lanes", "SCRATCH", "vector_groups",
            "stages_out", "carry_in_scratch", "rk_stage", "stage_point", "rk_combine",

@@ -56,11 +56,11 @@ from numba.extending import intrinsic, register_model
 from sweep.kernels._jit import jit
 
 __all__ = ["WIDTH", "VARIANT", "log1", "exp1", "log4", "exp4", "expm1_4", "sqrt_div4", "HAS",
-           "VECTOR", "EVERY_ELEMENT", "Vector", "vector", "vpack", "vtuple", "vadd", "vsub", "vmul", "vdiv",
-           "vsqrt", "vabs", "vwhere_positive", "vwhere_nonnegative", "vwhere_equal",
-           "vsqrt_where_equal", "vlt_bits", "vle_bits", "vgt_bits", "vge_bits", "veq_bits",
-           "vnan_bits", "vselect_bits", "ieq_bits", "ilt_bits", "vload", "vstore", "vscatter",
-           "vgather", "vdot"]
+           "VECTOR", "EVERY_ELEMENT", "Vector", "vector", "vpack", "vtuple", "vadd", "vsub",
+           "vmul", "vdiv", "vsqrt", "vabs", "vwhere_positive", "vwhere_nonnegative",
+           "vwhere_equal", "vsqrt_where_equal", "vlt_bits", "vle_bits", "vgt_bits", "vge_bits",
+           "veq_bits", "vnan_bits", "vselect_bits", "ieq_bits", "ilt_bits", "vload", "vstore",
+           "vscatter", "vgather", "vdot"]
 
 # libmvec's variants, in order of preference: (CPU feature, name letter of the x86_64
 # vector ABI, doubles per vector). AVX2 before AVX-512: on the AMD EPYC (Zen 4) where it was
