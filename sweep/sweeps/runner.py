@@ -11,9 +11,9 @@ Two executors:
 * local (default): chunks are fed one after another, from the main thread, to the api
   functions, which already run on all cores (:mod:`sweep.kernels._parallel`). The netCDF
   writing (zlib compression where it pays) happens in one background thread, overlapping
-  the next chunk (see :class:`_WriteBehind`; on 2 cores it cut a 4e6-point run of cheap
+  the next chunk (see :class:`_Behind`; on 2 cores it cut a 4e6-point run of cheap
   approximations from 25 s to 17 s). Saving a chunk for resume runs one chunk behind in a
-  thread of its own too (:class:`_SaveBehind`): an error or an interruption waits for the
+  thread of its own too (:class:`_Behind`): an error or an interruption waits for the
   save in flight, so that every computed chunk is kept; only a hard kill can lose the one
   chunk in flight, as it loses the one being computed.
 * distributed: ``scheduler="tcp://host:port"`` (or a ``distributed.Client``) submits chunks
@@ -590,96 +590,65 @@ def _dask_executor(plan, tasks, client, log):
 
 #: Chunks allowed to wait for the background writer (0: write in the main thread).
 WRITE_BEHIND = 2
+#: Chunks whose resume save may still run while the next one computes (0: saved in the main
+#: thread before the run goes on).
+SAVE_BEHIND = 1
 
 
-class _WriteBehind:
-    """Write chunks into the netCDF file from one background thread.
+class _Behind:
+    """``call(*args)`` for chunk after chunk from one background thread, at most ``depth``
+    calls behind the main thread (0: in the main thread, at once).
 
-    zlib compression runs inside HDF5 with the GIL released, so it overlaps the next
-    chunk's kernels (fully with serial kernels, which leave cores idle). At most ``depth``
-    chunks wait to be written, which bounds memory; only this thread touches the file while
-    it runs (HDF5 builds are usually not thread-safe), and an error in it is raised in the
-    main thread at the next :meth:`write` or at :meth:`drain`.
+    Two run so: the netCDF writer's writes and the partial store's saves for resume. The
+    writer's zlib runs inside HDF5 with the GIL released, so it overlaps the next chunk's
+    kernels (fully with serial kernels, which leave cores idle), and only its thread touches
+    the file while it runs (HDF5 builds are usually not thread-safe). Hashing, writing and
+    syncing a chunk for resume (0.19 s a million points of configs/sobol_1m.toml, most of a
+    run's serial part, which the cores do not shorten) overlaps them too. The depth bounds
+    memory; an error in a call is raised in the main thread at the next :meth:`submit` or
+    at :meth:`drain`, and :meth:`settle` waits without raising, so that a failed or
+    interrupted run keeps, and counts, every chunk saved.
     """
 
-    def __init__(self, writer: store.Writer, depth: int = 2) -> None:
-        self._writer = writer
+    def __init__(self, call: Callable[..., None], depth: int, name: str) -> None:
+        self._call = call
         self._depth = depth
         self._pending = collections.deque()
-        self._pool = concurrent.futures.ThreadPoolExecutor(
-            max_workers=1, thread_name_prefix="sweep-writer")
-        #: Seconds :meth:`write` and :meth:`drain` waited for the writer.
+        self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=1,
+                                                           thread_name_prefix=name)
+        #: Seconds :meth:`submit` and :meth:`drain` waited for the thread.
         self.waited = 0.0
 
-    def write(self, *args):
+    def submit(self, *args) -> None:
         if self._depth == 0:
-            self._writer.write(*args)
+            self._call(*args)
             return
         if len(self._pending) >= self._depth:
             t0 = time.perf_counter()
             while len(self._pending) >= self._depth:
                 self._pending.popleft().result()
             self.waited += time.perf_counter() - t0
-        self._pending.append(self._pool.submit(self._writer.write, *args))
+        self._pending.append(self._pool.submit(self._call, *args))
 
-    def drain(self):
-        """Wait until every submitted chunk is written (re-raising a writer error)."""
+    def drain(self) -> None:
+        """Wait until every submitted call is done (re-raising its error)."""
         t0 = time.perf_counter()
         while self._pending:
             self._pending.popleft().result()
         self.waited += time.perf_counter() - t0
 
-    def shutdown(self):
-        for fut in self._pending:
-            fut.cancel()
-        self._pool.shutdown(wait=True)
-        self._pending.clear()
-
-
-#: Chunks whose resume save may still run while the next one computes (0: saved in the main
-#: thread before the run goes on).
-SAVE_BEHIND = 1
-
-
-class _SaveBehind:
-    """Save finished chunks for resume (:meth:`sweep.store.PartialStore.save_chunk`) from one
-    background thread, one chunk behind the main thread.
-
-    Hashing, writing and syncing a chunk (0.19 s a million points of configs/sobol_1m.toml,
-    most of a run's serial part, which the cores do not shorten) then overlaps the next
-    chunk's kernels. At most one chunk is in flight: a save's error is raised at the next
-    :meth:`save_chunk` or at :meth:`drain`; :meth:`settle` waits for it without raising, so
-    that a failed or interrupted run keeps, and counts, every chunk handed over.
-    """
-
-    def __init__(self, partial, depth: int = 1) -> None:
-        self._partial = partial
-        self._depth = depth
-        self._pool = concurrent.futures.ThreadPoolExecutor(
-            max_workers=1, thread_name_prefix="sweep-saver")
-        self._pending = None
-
-    def save_chunk(self, *args) -> None:
-        self.drain()
-        if self._depth == 0:
-            self._partial.save_chunk(*args)
-            return
-        self._pending = self._pool.submit(self._partial.save_chunk, *args)
-
-    def drain(self) -> None:
-        """Wait until the chunk handed over last is saved (re-raising its error)."""
-        pending, self._pending = self._pending, None
-        if pending is not None:
-            pending.result()
-
     def settle(self) -> None:
-        """Wait for a save in flight; its error is not this caller's to report."""
+        """Wait for the calls in flight; their errors are not this caller's to report."""
         with contextlib.suppress(Exception):
             self.drain()
 
-    def shutdown(self) -> None:
-        self.settle()
+    def shutdown(self, cancel: bool = True) -> None:
+        """Stop the thread, the calls not yet started cancelled (``cancel``) or done."""
+        if cancel:
+            for fut in self._pending:
+                fut.cancel()
         self._pool.shutdown(wait=True)
+        self._pending.clear()
 
 
 # --------------------------------------------------------------------------- the driver's steps
@@ -1120,7 +1089,7 @@ def _tasks(job, partial, done, behind, totals, bar) -> Iterator[tuple]:
             loaded = partial.load_chunk(index, start, stop, points)
             if loaded is not None:
                 arrays, (wall, kernel, *caveats) = loaded
-                behind.write(start, stop, arrays, points)
+                behind.submit(start, stop, arrays, points)
                 totals.add(wall, kernel, caveats)
                 job.result.resumed_chunks += 1
                 continue
@@ -1172,7 +1141,7 @@ def _stream_chunks(job, partial, done, behind, quiet, client, save=None):
             now = time.perf_counter()
             wall, last = now - last, now
             save(index, start, stop, arrays, [wall, kernel, *caveats], points)
-            behind.write(start, stop, arrays, points)
+            behind.submit(start, stop, arrays, points)
             totals.add(wall, kernel, caveats)
             result.computed_points += stop - start
             result.kernel_seconds += kernel
@@ -1297,15 +1266,15 @@ def _write_output(job, partial, done, quiet, client, scheduler):
     half-assembled one deleted (it is rebuilt from the chunk files; deleting it gives a
     full disk its space back)."""
     writer = behind = None
-    saver = _SaveBehind(partial, depth=SAVE_BEHIND)
+    saver = _Behind(partial.save_chunk, SAVE_BEHIND, "sweep-saver")
     try:
         attrs = _static_attrs(job.cfg, job.design, job.plan, job.chunk_size)
         attrs.update(_provenance_attrs(job, scheduler, attrs["date_created"]))
         writer = store.NetCDFWriter(partial.assembling, job.layout, job.plan.variables, attrs,
                                     compress=job.cfg.compress)
-        behind = _WriteBehind(writer, depth=WRITE_BEHIND)
+        behind = _Behind(writer.write, WRITE_BEHIND, "sweep-writer")
         job.result.compile_seconds = _warm_up(job, done, client)
-        totals = _stream_chunks(job, partial, done, behind, quiet, client, saver.save_chunk)
+        totals = _stream_chunks(job, partial, done, behind, quiet, client, saver.submit)
         saver.drain()
         _finish(job, partial, writer, behind, totals, client)
     except KeyboardInterrupt:
@@ -1321,7 +1290,8 @@ def _write_output(job, partial, done, quiet, client, scheduler):
             raise
         raise failure from exc
     finally:
-        saver.shutdown()
+        saver.settle()
+        saver.shutdown(cancel=False)     # every save handed over is kept
         if behind is not None:
             behind.shutdown()
         if writer is not None:
@@ -1438,7 +1408,7 @@ def _compute_in_memory(job, quiet, client, scheduler):
     attrs.update(_provenance_attrs(job, scheduler, attrs["date_created"]))
     writer = store.MemoryWriter(job.layout, job.plan.variables, attrs)
     # Copying a chunk into memory is cheap: no background writer.
-    behind = _WriteBehind(writer, depth=0)
+    behind = _Behind(writer.write, 0, "sweep-writer")
     try:
         job.result.compile_seconds = _warm_up(job, set(), client)
         totals = _stream_chunks(job, _NoPartial(), set(), behind, quiet, client)
