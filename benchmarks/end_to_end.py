@@ -17,7 +17,7 @@ variables plus four per-point coordinates: 7.2 GB of results for 1e8 points).
 Printed: points/s (whole run, wall clock), peak resident memory of the process
 (``getrusage`` ``ru_maxrss``: the high-water mark, JIT compiler included), the fraction of the
 wall time spent outside the api kernels, and where that time went (design generation,
-saving chunks for resume, waiting for the background netCDF writer, the final atomic commit).
+waiting for the background netCDF writer and resume saver, the final atomic commit).
 The kernels are compiled (or loaded from numba's cache) before the clock starts.
 """
 from __future__ import annotations
@@ -71,12 +71,12 @@ def instrument(table, background):
     """Time the non-kernel stages of a run by wrapping them (the runner is unchanged)."""
     for cls in (design.GridDesign, design.DoEDesign):
         cls.points = timed(table, "design points", cls.points)
-    store.PartialStore.save_chunk = timed(table, "save chunk (resume)",
-                                          store.PartialStore.save_chunk)
-    # The netCDF writing runs in a background thread: what the main thread loses is the
-    # time it waits for that thread (queue full, final drain), timed separately.
-    runner._WriteBehind.write = timed(table, "wait for netCDF writer", runner._WriteBehind.write)
-    runner._WriteBehind.drain = timed(table, "wait for netCDF writer", runner._WriteBehind.drain)
+    # The netCDF writing and the saves for resume run in background threads: what the main
+    # thread loses is the time it waits for them (queue full, final drain), timed apart.
+    store.PartialStore.save_chunk = timed(background, "save chunk for resume (background "
+                                          "thread)", store.PartialStore.save_chunk)
+    runner._Behind.submit = timed(table, "wait for background", runner._Behind.submit)
+    runner._Behind.drain = timed(table, "wait for background", runner._Behind.drain)
     store.NetCDFWriter.write = timed(background, "netCDF writing (background thread)",
                                      store.NetCDFWriter.write)
     store.NetCDFWriter.close = timed(table, "close netCDF", store.NetCDFWriter.close)
