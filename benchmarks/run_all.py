@@ -19,9 +19,11 @@ Figures (``name``; the target is issue 10's, "on this 2-core machine"):
   the same generator.
 * ``sobol_1m_end_to_end``: ``sweep run configs/sobol_1m.toml`` in a subprocess after a warm-up
   run (warm kernel cache); points / ``run_time_s`` (the chunks' wall time: kernels, design,
-  saving, writing; read from the output file), the process's wall time beside it.
-* ``sobol_1m_threads_2v1``: the same run with ``NUMBA_NUM_THREADS=2`` over ``=1``; beside it
-  the two runs' ``kernel_time_s`` and their ratio (the kernels alone, inside the runs: the
+  saving, writing; read from the output file), the best of ``--repeat`` rounds, the
+  process's wall time beside it.
+* ``sobol_1m_threads_2v1``: the same run with ``NUMBA_NUM_THREADS=2`` over ``=1``, the (lower)
+  median of ``--repeat`` paired rounds (every round's ratio beside it); beside it the median round's
+  two ``kernel_time_s`` and their ratio (the kernels alone, inside the runs: the
   background writer's zlib takes its CPU from them on two threads, from the idle core on one).
 * ``startup_compile_fresh``: a fresh process with an empty kernel cache (``NUMBA_CACHE_DIR``
   a new temporary directory) calls every method of ``sweep.METHODS`` once with scalars
@@ -211,22 +213,39 @@ def _sobol_run(n, threads, workdir, env_extra=None):
 
 
 def sobol_figures(args, machine):
-    """End-to-end points/s of the Sobol run on all numba threads, and 2 threads over 1."""
+    """End-to-end points/s of the Sobol run on all numba threads, and 2 threads over 1.
+
+    ``--repeat`` rounds, each a run on every thread count in turn: the end-to-end figure is
+    the best round's, the ratio the (lower) median of the rounds' paired ratios (each round's runs
+    minutes apart at most, so a drift of the shared machine's speed shows in the spread of
+    the ratios, not in their median), every round's ratio beside it."""
     everyone = sweep_threads()
-    runs = {}
+    counts = sorted({everyone, 2, 1}, reverse=True)
+    rounds = []
     with tempfile.TemporaryDirectory(prefix="sweep-run-all-") as tmp:
         _sobol_run(min(args.sobol_n, 4096), everyone, tmp)          # warm the cache
-        for threads in sorted({everyone, 2, 1}, reverse=True):
-            runs[threads] = _sobol_run(args.sobol_n, threads, tmp)
-    rate, wall, attrs = runs[everyone]
+        for _ in range(max(1, args.repeat)):
+            rounds.append({t: _sobol_run(args.sobol_n, t, tmp) for t in counts})
+    rate, wall, attrs = max((r[everyone] for r in rounds), key=lambda run: run[0])
     e2e = line("sobol_1m_end_to_end", rate, machine, args.sobol_n, everyone,
-               process_wall_s=wall, **{k: float(v) for k, v in attrs.items()})
-    spd = line("sobol_1m_threads_2v1", runs[2][0] / runs[1][0], machine, args.sobol_n, 2,
-               points_per_second_1=runs[1][0], points_per_second_2=runs[2][0],
-               kernel_time_s_1=float(runs[1][2]["kernel_time_s"]),
-               kernel_time_s_2=float(runs[2][2]["kernel_time_s"]),
-               kernels_2v1=float(runs[1][2]["kernel_time_s"] / runs[2][2]["kernel_time_s"]))
-    return [e2e, spd]
+               process_wall_s=wall, rounds=len(rounds),
+               **{k: float(v) for k, v in attrs.items()})
+    return [e2e, _two_over_one(rounds, machine, args.sobol_n)]
+
+
+def _two_over_one(rounds, machine, n):
+    """The ``sobol_1m_threads_2v1`` line of the rounds of :func:`sobol_figures`."""
+    def kernels(run):
+        return float(run[2]["kernel_time_s"])
+    ratios = [r[2][0] / r[1][0] for r in rounds]
+    mid = int(np.argsort(ratios)[(len(ratios) - 1) // 2])     # the median round (lower)
+    m = rounds[mid]
+    return line("sobol_1m_threads_2v1", ratios[mid], machine, n, 2,
+                ratios=[round(x, 4) for x in ratios],
+                kernels_2v1_each=[round(kernels(r[1]) / kernels(r[2]), 4) for r in rounds],
+                points_per_second_1=m[1][0], points_per_second_2=m[2][0],
+                kernel_time_s_1=kernels(m[1]), kernel_time_s_2=kernels(m[2]),
+                kernels_2v1=kernels(m[1]) / kernels(m[2]))
 
 
 #: Run in a fresh process: the first call of every public method, serial then parallel,

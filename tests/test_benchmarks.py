@@ -144,6 +144,23 @@ def test_pass_needs_the_target_and_the_error():
     assert not run_all.line("startup_compile_fresh", 16.0, {}, 1, 2)["pass"]
 
 
+def test_two_over_one_is_the_median_round_of_paired_runs():
+    # Rounds as _sobol_run gives them: {threads: (points/s, wall, attrs)}.
+    def run(rate, kernel_s):
+        return (rate, 0.0, {"kernel_time_s": kernel_s})
+    rounds = [{1: run(100.0, 10.0), 2: run(190.0, 5.0)},     # 1.90
+              {1: run(100.0, 10.0), 2: run(150.0, 6.0)},     # 1.50, a noisy round
+              {1: run(110.0, 9.0), 2: run(198.0, 5.0)}]      # 1.80
+    x = run_all._two_over_one(rounds, {}, 1000)
+    assert x["value"] == pytest.approx(1.8) and not x["pass"]
+    assert x["ratios"] == [1.9, 1.5, 1.8]
+    assert (x["points_per_second_1"], x["points_per_second_2"]) == (110.0, 198.0)
+    assert x["kernels_2v1"] == pytest.approx(9.0 / 5.0)
+    assert x["kernels_2v1_each"] == [2.0, pytest.approx(10 / 6, abs=1e-4), 1.8]
+    even = run_all._two_over_one(rounds[:2], {}, 1000)    # the lower of two
+    assert even["value"] == pytest.approx(1.5)
+
+
 def test_draw_is_the_core_benchmarks():
     a, b, g, G = run_all.draw(1000, "kk")
     rng = np.random.default_rng(0)
