@@ -23,10 +23,9 @@ by ``sweep report error-model``, :mod:`sweep.reports.error_model`) is a table of
 Bounds are stored as int8 codes ``ceil(CODES_PER_DECADE log10(bound))`` (rounded up, so a
 code never understates a bound; :data:`NO_BOUND` means none).
 
-The integrator's resolution is the ``steps`` option (the accuracy of the integrated points
-is the integrator's, ~1e-10 at the default 96 steps, so a ``tol`` below ~1e-8 asks for
-more steps); when the ``"numeric"`` method registers a ``tol`` option of its own, ``auto``
-passes its ``tol`` to it.
+The integrated points get auto's ``tol`` as the integrator's accuracy knob, and those whose
+``e_err`` is still above it are integrated again at tighter ones
+(:data:`RETRY_TOL_FACTORS`).
 
 Owns: the error model's file format, the bound at a point and the per-point selection.
 May import: :mod:`sweep.registry` (the methods are called through it) and numpy. Floor 2.
@@ -188,13 +187,10 @@ def select(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: np.nd
 
 
 def _integrator_options(tol: float, options: dict[str, Any]) -> dict[str, Any]:
-    """The integration's options: auto's own, and its tol once the integrator has one."""
-    numeric = registry.METHODS["numeric"]
-    names = {opt.name for opt in numeric.options}
+    """The integration's options: auto's own (those the integrator has), and its tol."""
+    names = {opt.name for opt in registry.METHODS["numeric"].options}
     given = {k: v for k, v in options.items() if k in names}
-    if "tol" in names:
-        given["tol"] = tol
-    return integrator_settings(**given)
+    return integrator_settings(**{**given, "tol": tol})
 
 
 def serve(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: np.ndarray,
@@ -206,7 +202,7 @@ def serve(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: np.nda
     codes : ndarray of int8
         :data:`sweep.registry.SERVED_BY` code per point (what :func:`select` returns).
     tol : float
-        Passed to the integrator once it has a ``tol`` option.
+        Passed to the integrator (its accuracy knob).
     **options
         The integrator's options for the integrated points.
     """
