@@ -16,7 +16,7 @@ import sweep
 from sweep.kernels._jit import jit
 from sweep.kernels.integrator import DEFAULT_MAX_STEPS, DEFAULT_REST_TOL
 from sweep.kernels.lanes import LANES, N_ENDING, march_lanes
-from sweep.kernels.march import march_point
+from sweep.kernels.march import march_point, scratch
 
 HARD = Path(__file__).parent / "data" / "hard_cases.csv"
 E_TOL = 1e-10
@@ -127,3 +127,54 @@ def test_lanes_refuse_arrays_they_cannot_borrow():
     ends = np.empty((4, 2 * N_ENDING))[:, ::2]
     with pytest.raises(numba.core.errors.TypingError, match="C-contiguous"):
         _march_lanes(alpha, beta, gamma, gtilde, todo, np.full(4, 48.0), budget, ends)
+
+
+def test_bare_lanes_view_the_same_memory_with_the_same_shapes():
+    # The called per-lane paths take the lanes as bare pointers and view them again
+    # (lanes._bare, lanes._clothed): each view must be the array it came from, element for
+    # element and shape for shape, writes included.
+    import numba
+
+    from sweep.kernels import lanes as L
+
+    @numba.njit
+    def round_trip(um, K2, Q, ends):
+        own = L._lanes(um)
+        own.LF.ravel()[:] = np.arange(own.LF.size) * 0.5
+        own.CR.ravel()[:] = np.arange(own.CR.size) * 1.5
+        own.SF.ravel()[:] = np.arange(own.SF.size) * 2.5
+        own.y.ravel()[:] = np.arange(own.y.size) * 3.5
+        own.K.ravel()[:] = np.arange(own.K.size) * 0.25
+        own.u[:], own.w[:], own.h[:] = 1.0, 2.0, np.arange(own.h.size) * 0.75
+        own.S[:] = np.arange(own.S.size) * 0.125
+        own.LI.ravel()[:] = np.arange(own.LI.size)
+        own.SI.ravel()[:] = -np.arange(own.SI.size)
+        own.point[:] = np.arange(own.point.size)
+        own.live[::2] = True
+        ln, K2v, Qv, endsv = L._clothed(L._bare(own, K2, Q, ends))
+        endsv[-1, -1] = 7.0         # written through the view
+        same = (np.array_equal(ln.LF, own.LF) and np.array_equal(ln.LI, own.LI)
+                and np.array_equal(ln.CR, own.CR) and np.array_equal(ln.SF, own.SF)
+                and np.array_equal(ln.SI, own.SI) and np.array_equal(ln.u, own.u)
+                and np.array_equal(ln.w, own.w) and np.array_equal(ln.h, own.h)
+                and np.array_equal(ln.y, own.y) and np.array_equal(ln.K, own.K)
+                and np.array_equal(ln.S, own.S) and np.array_equal(ln.um, um)
+                and np.array_equal(ln.point, own.point) and np.array_equal(ln.live, own.live)
+                and np.array_equal(K2v, K2) and np.array_equal(Qv, Q)
+                and np.array_equal(endsv, ends))
+        shapes = (ln.K.shape == own.K.shape and ln.LF.shape == own.LF.shape
+                  and ln.SI.shape == own.SI.shape and ln.y.shape == own.y.shape
+                  and ln.S.shape == own.S.shape and ln.um.shape == um.shape
+                  and endsv.shape == ends.shape and K2v.shape == K2.shape
+                  and Qv.shape == Q.shape and ln.K.strides == own.K.strides
+                  and ln.SI.strides == own.SI.strides and endsv.strides == ends.strides
+                  and ln.live.strides == own.live.strides)
+        return same, shapes
+
+    rng = np.random.default_rng(0)
+    ends = rng.random((5, N_ENDING))
+    K, K2, Q = scratch()      # the march's own scratch, as march_lanes makes it
+    K2[:], Q[:] = rng.random(K2.shape), rng.random(Q.shape)
+    same, shapes = round_trip(rng.random(5), K2, Q, ends)
+    assert same and shapes
+    assert ends[-1, -1] == 7.0 and ends[-1, 0] != 7.0

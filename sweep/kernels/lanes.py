@@ -61,14 +61,15 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
-from numba.core import types
+from numba.core import cgutils, types
 from numba.extending import intrinsic
+from numba.np.arrayobj import populate_array
 
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import (LAW_COLUMNS, equilibrium, general_exponents, gtilde_rows,
                                    law_at, make_law, put_law, umax_undamped_many)
 from sweep.kernels.creep import ROUNDING_V, Creep, creep_constants_at, creep_kappa
-from sweep.kernels.march import (GOING, Ending, State, after_stages_estimated,
+from sweep.kernels.march import (GOING, SCRATCH_SHAPES, Ending, State, after_stages_estimated,
                                  carry_last_stage, out_of_budget, scratch, start)
 from sweep.kernels.stepper import (N_STAGES, SCRATCH, carry_in_scratch, rk_step_lanes,
                                    stages_out, vector_groups)
@@ -135,6 +136,35 @@ def _data(typingctx, arr):
     return types.CPointer(arr.dtype)(arr), codegen
 
 
+@intrinsic
+def _view(typingctx, ptr, shape):
+    """A C-contiguous array of ``shape`` (a tuple of ints) over the data at ``ptr``, with no
+    owner: :func:`_data`'s converse. (``numba.carray`` makes the same through a function
+    that returns an array, which a helper compiled without reference counts may not
+    call.)"""
+    if not (isinstance(ptr, types.CPointer) and isinstance(shape, types.UniTuple)
+            and isinstance(shape.dtype, types.Integer)):
+        raise numba.core.errors.TypingError(
+            f"a pointer and a tuple of ints are needed, got {ptr} and {shape}")
+    array = types.Array(ptr.dtype, shape.count, "C")
+
+    def codegen(context, builder, signature, args):
+        out = context.make_array(array)(context, builder)
+        intp = types.intp
+        dims = [context.cast(builder, d, shape.dtype, intp)
+                for d in cgutils.unpack_tuple(builder, args[1], shape.count)]
+        itemsize = context.get_constant(intp, context.get_abi_sizeof(
+            context.get_data_type(ptr.dtype)))
+        strides = [itemsize]
+        for d in reversed(dims[1:]):
+            strides.insert(0, builder.mul(strides[0], d))
+        data = builder.bitcast(args[0], out.data.type)
+        populate_array(out, data=data, shape=dims, strides=strides, itemsize=itemsize,
+                       meminfo=None)
+        return out._getvalue()
+    return array(ptr, shape), codegen
+
+
 @jit(inline="always")
 def _borrowed(a):
     """``a`` without ownership: numba updates an array's reference count (an atomic
@@ -151,18 +181,59 @@ def _borrow(ln):
                  b(ln.u), b(ln.w), b(ln.h), b(ln.y), b(ln.K), b(ln.S), b(ln.um))
 
 
+#: Shapes of the arrays of :class:`Lanes`, in its order, but ``um`` (one per point): made by
+#: :func:`_lanes`, viewed again from bare pointers by :func:`_clothed`.
+_SHAPES = ((LANES,), (LANES,), (LANES, LAW_COLUMNS[0]), (LANES, LAW_COLUMNS[1]), (7, LANES),
+           (14, LANES), (8, LANES), (LANES,), (LANES,), (LANES,), (5, LANES),
+           (LANES, N_STAGES, 3), (SCRATCH * LANES,))
+
+
 @jit(inline="always")
 def _lanes(um):
     # np.full and np.zeros would each compile an implementation of their own.
-    point = np.empty(LANES, np.int64)
+    S, i = _SHAPES, np.int64
+    point = np.empty(S[0], i)
     point[:] = -1
-    live = np.empty(LANES, np.bool_)
+    live = np.empty(S[1], np.bool_)
     live[:] = False
-    return Lanes(point, live, np.empty((LANES, LAW_COLUMNS[0])),
-                 np.empty((LANES, LAW_COLUMNS[1]), np.int64),
-                 np.empty((7, LANES)), np.empty((14, LANES)), np.empty((8, LANES), np.int64),
-                 np.empty(LANES), np.empty(LANES), np.empty(LANES), np.empty((5, LANES)),
-                 np.empty((LANES, N_STAGES, 3)), np.empty(SCRATCH * LANES), um)
+    return Lanes(point, live, np.empty(S[2]), np.empty(S[3], i), np.empty(S[4]),
+                 np.empty(S[5]), np.empty(S[6], i), np.empty(S[7]), np.empty(S[8]),
+                 np.empty(S[9]), np.empty(S[10]), np.empty(S[11]), np.empty(S[12]), um)
+
+
+class _Bare(NamedTuple):
+    """The lanes and the march's K2, Q and Endings as bare data pointers, and the march's
+    number of points ``n``: the one argument of the called per-lane paths, which view them
+    again (:func:`_clothed`; the shapes are constants but n). Passed as arrays (each its
+    pointer, owner, sizes, shape and strides), a call took 127-174 arguments, most of them
+    stored to the stack and read back, at every step of a lane whose damping cap can bind:
+    heavily damped KK lost 40% of its speed when those paths were called instead of
+    inlined (128,700 -> 69,900 points/s, ``benchmarks/damped.py``'s draw, 2026-12-07)."""
+
+    lanes: tuple     # data pointers of the arrays of Lanes, in its order
+    K2: object       # data pointers of march()'s re-step stages, dense output, Endings
+    Q: object
+    ends: object
+    n: int
+
+
+@jit(inline="always")
+def _bare(ln, K2, Q, ends):
+    d = _data
+    return _Bare((d(ln.point), d(ln.live), d(ln.LF), d(ln.LI), d(ln.CR), d(ln.SF), d(ln.SI),
+                  d(ln.u), d(ln.w), d(ln.h), d(ln.y), d(ln.K), d(ln.S), d(ln.um)),
+                 d(K2), d(Q), d(ends), ends.shape[0])
+
+
+@jit(inline="always")
+def _clothed(bare):
+    """``(ln, K2, Q, ends)``: the arrays of a :class:`_Bare`, viewed again (borrowed)."""
+    c, p, S = _view, bare.lanes, _SHAPES
+    ln = Lanes(c(p[0], S[0]), c(p[1], S[1]), c(p[2], S[2]), c(p[3], S[3]), c(p[4], S[4]),
+               c(p[5], S[5]), c(p[6], S[6]), c(p[7], S[7]), c(p[8], S[8]), c(p[9], S[9]),
+               c(p[10], S[10]), c(p[11], S[11]), c(p[12], S[12]), c(p[13], (bare.n,)))
+    _, k2, q = SCRATCH_SHAPES
+    return ln, c(bare.K2, k2), c(bare.Q, q), c(bare.ends, (bare.n, N_ENDING))
 
 
 @jit(inline="always")
@@ -258,11 +329,12 @@ def ending_at(E, j):
 # Called, not inlined (two call sites, once per point; inlined, each copied the start of
 # a march into the driver: seconds of compile).
 @jit(counted=False)
-def _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, order):
+def _refill(bare, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, order):
     """Idle lanes take the next entries of ``todo`` in the ``order`` of
     :func:`_general_first` (their marches started as march() starts them, with their
     ``steps`` and ``budget``), while there are any; returns the next position in
-    ``order``."""
+    ``order``. ``bare``: the lanes' :class:`_Bare`."""
+    ln = _clothed(bare)[0]
     for lane in range(LANES):
         if ln.live[lane] or nxt >= todo.size:
             continue
@@ -482,11 +554,12 @@ def _vput(a, at, bits, x):
 # The lanes' rare per-lane paths, called, not inlined: inlined, each copied the march's
 # step logic into the driver at compile time.
 @jit(counted=False)
-def _sized_or_ended(ln, lane, ends):
+def _sized_or_ended(bare, lane):
     """Where :func:`_guessed_group` did not size ``lane``'s step: its size by
     :func:`~sweep.kernels.stepsize.first_guess`, or, its budget spent, its Ending
     (:func:`~sweep.kernels.march.out_of_budget`) stored and the lane idle. Returns whether
-    it went idle."""
+    it went idle. ``bare``: the lanes' :class:`_Bare`."""
+    ln, _, _, ends = _clothed(bare)
     st, c = _state(ln, lane), law_at(ln.LF, ln.LI, lane)
     if st.n < ln.SI[_BUDGET, lane]:
         ln.h[lane] = first_guess(st.u, st.v, st.p, c)
@@ -495,10 +568,12 @@ def _sized_or_ended(ln, lane, ends):
 
 
 @jit(counted=False)
-def _finished(ln, lane, K2, Q, rest_tol, e_tol, ends):
+def _finished(bare, lane, rest_tol, e_tol):
     """Where :func:`_moved_on_group` did not move ``lane`` on: the rest of march()'s step
     (:func:`~sweep.kernels.march.after_stages_estimated`), its state stored, or, where its
-    march ended, its Ending stored and the lane idle. Returns whether it went idle."""
+    march ended, its Ending stored and the lane idle. Returns whether it went idle.
+    ``bare``: the lanes' :class:`_Bare`."""
+    ln, K2, Q, ends = _clothed(bare)
     y = ln.y
     c = law_at(ln.LF, ln.LI, lane)
     _creep_known(ln, lane, c, ln.K[lane, N_STAGES - 1, 0], y[1, lane])
@@ -552,8 +627,9 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     b = _borrowed
     ln, K2, Q = _borrow(own), b(K2_own), b(Q_own)
     ends = b(ends)     # the others are read once per point
+    bare = _bare(ln, K2, Q, ends)
     order = _general_first(alpha, beta, todo)
-    nxt = _refill(ln, np.int64(0), alpha, beta, gamma, gtilde, todo, steps, budget, order)
+    nxt = _refill(bare, np.int64(0), alpha, beta, gamma, gtilde, todo, steps, budget, order)
     vec = vector_groups(ln.LF, ln.LI, ln.S)    # again whenever lanes take points
     fresh = _EVERY_LANE     # lanes whose first stage is in K, not in the scratch
     while _any(ln.live):
@@ -562,7 +638,7 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
             left = _guessed_group(ln, first)
             for k in range(VECTOR):
                 if left >> k & 1:
-                    idle = _sized_or_ended(ln, first + k, ends) or idle
+                    idle = _sized_or_ended(bare, first + k) or idle
         if not idle:
             rk_step_lanes(ln.u, ln.w, ln.h, ln.K, ln.LF, ln.LI, ln.live, ln.y, ln.S, vec,
                           fresh)
@@ -574,11 +650,11 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
                     if left >> k & 1:
                         if vector:
                             stages_out(ln.K, ln.S, first + k)
-                        idle = _finished(ln, first + k, K2, Q, rest_tol, e_tol, ends) or idle
+                        idle = _finished(bare, first + k, rest_tol, e_tol) or idle
                         fresh |= 1 << (first + k)     # its next first stage is in K
         if idle:
             was = _live_lanes(ln)
-            nxt = _refill(ln, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, order)
+            nxt = _refill(bare, nxt, alpha, beta, gamma, gtilde, todo, steps, budget, order)
             fresh |= _live_lanes(ln) & ~was          # new points: their first stage in K
             vec, fresh = _regrouped(ln, vec, fresh)
     # The owners live until the borrowed views are done with.

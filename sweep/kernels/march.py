@@ -56,8 +56,8 @@ from sweep.kernels.stepsize import (StepPolicy, damping_step, first_guess, local
 
 __all__ = ["Ending", "State", "march", "march_point", "start", "finish_step", "after_stages",
            "after_stages_estimated", "out_of_budget", "EXIT", "TROUGH", "SPENT", "REST",
-           "BUDGET", "CREEP", "NEGLIGIBLE", "GOING", "scratch", "compensated_sum",
-           "carry_last_stage"]
+           "BUDGET", "CREEP", "NEGLIGIBLE", "GOING", "scratch", "SCRATCH_SHAPES",
+           "compensated_sum", "carry_last_stage"]
 
 # Relative roundoff in the dissipated energy q (a sum of positive terms): the energy rule
 # waits until q exceeds the initial energy 1/2 by more than it.
@@ -97,10 +97,17 @@ _ZETA_FREE = 0.5
 _LOAD_FREE = 1e-6
 
 
+#: Shapes of :func:`scratch`'s arrays K, K2, Q (the lanes view K2 and Q through bare
+#: pointers in their called paths: ``sweep.kernels.lanes._clothed``).
+SCRATCH_SHAPES = ((N_STAGES, 3), (N_STAGES, 3), (2, N_DENSE))
+
+
 @jit(inline="always")
 def scratch():
-    """Work arrays of one thread: stages ``K``, re-step stages ``K2``, dense output ``Q``."""
-    return np.empty((N_STAGES, 3)), np.empty((N_STAGES, 3)), np.empty((2, N_DENSE))
+    """Work arrays of one thread: stages ``K``, re-step stages ``K2``, dense output ``Q``
+    (their shapes :data:`SCRATCH_SHAPES`)."""
+    k, k2, q = SCRATCH_SHAPES
+    return np.empty(k), np.empty(k2), np.empty(q)
 
 
 @jit(inline="always")
