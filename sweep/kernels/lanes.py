@@ -136,35 +136,6 @@ def _data(typingctx, arr):
     return types.CPointer(arr.dtype)(arr), codegen
 
 
-@intrinsic
-def _view(typingctx, ptr, shape):
-    """A C-contiguous array of ``shape`` (a tuple of ints) over the data at ``ptr``, with no
-    owner: :func:`_data`'s converse. (``numba.carray`` makes the same through a function
-    that returns an array, which a helper compiled without reference counts may not
-    call.)"""
-    if not (isinstance(ptr, types.CPointer) and isinstance(shape, types.UniTuple)
-            and isinstance(shape.dtype, types.Integer)):
-        raise numba.core.errors.TypingError(
-            f"a pointer and a tuple of ints are needed, got {ptr} and {shape}")
-    array = types.Array(ptr.dtype, shape.count, "C")
-
-    def codegen(context, builder, signature, args):
-        out = context.make_array(array)(context, builder)
-        intp = types.intp
-        dims = [context.cast(builder, d, shape.dtype, intp)
-                for d in cgutils.unpack_tuple(builder, args[1], shape.count)]
-        itemsize = context.get_constant(intp, context.get_abi_sizeof(
-            context.get_data_type(ptr.dtype)))
-        strides = [itemsize]
-        for d in reversed(dims[1:]):
-            strides.insert(0, builder.mul(strides[0], d))
-        data = builder.bitcast(args[0], out.data.type)
-        populate_array(out, data=data, shape=dims, strides=strides, itemsize=itemsize,
-                       meminfo=None)
-        return out._getvalue()
-    return array(ptr, shape), codegen
-
-
 @jit(inline="always")
 def _borrowed(a):
     """``a`` without ownership: numba updates an array's reference count (an atomic
@@ -183,9 +154,9 @@ def _borrow(ln):
 
 #: Shapes of the arrays of :class:`Lanes`, in its order, but ``um`` (one per point): made by
 #: :func:`_lanes`, viewed again from bare pointers by :func:`_clothed`.
-_SHAPES = ((LANES,), (LANES,), (LANES, LAW_COLUMNS[0]), (LANES, LAW_COLUMNS[1]), (7, LANES),
-           (14, LANES), (8, LANES), (LANES,), (LANES,), (LANES,), (5, LANES),
-           (LANES, N_STAGES, 3), (SCRATCH * LANES,))
+_SHAPES = (LANES, LANES, (LANES, LAW_COLUMNS[0]), (LANES, LAW_COLUMNS[1]), (7, LANES),
+           (14, LANES), (8, LANES), LANES, LANES, LANES, (5, LANES), (LANES, N_STAGES, 3),
+           SCRATCH * LANES)
 
 
 @jit(inline="always")
@@ -225,15 +196,56 @@ def _bare(ln, K2, Q, ends):
                  d(K2), d(Q), d(ends), ends.shape[0])
 
 
-@jit(inline="always")
-def _clothed(bare):
-    """``(ln, K2, Q, ends)``: the arrays of a :class:`_Bare`, viewed again (borrowed)."""
-    c, p, S = _view, bare.lanes, _SHAPES
-    ln = Lanes(c(p[0], S[0]), c(p[1], S[1]), c(p[2], S[2]), c(p[3], S[3]), c(p[4], S[4]),
-               c(p[5], S[5]), c(p[6], S[6]), c(p[7], S[7]), c(p[8], S[8]), c(p[9], S[9]),
-               c(p[10], S[10]), c(p[11], S[11]), c(p[12], S[12]), c(p[13], (bare.n,)))
+def _shape(s):
+    return (s,) if isinstance(s, int) else tuple(s)
+
+
+def _viewed(context, builder, ptr_type, ptr, dims):
+    """A C-contiguous array without owner over the data at ``ptr`` (a CPointer), of shape
+    ``dims`` (LLVM intp values): :func:`_data`'s converse, in a codegen."""
+    array = types.Array(ptr_type.dtype, len(dims), "C")
+    out = context.make_array(array)(context, builder)
+    intp = types.intp
+    itemsize = context.get_constant(intp, context.get_abi_sizeof(
+        context.get_data_type(ptr_type.dtype)))
+    strides = [itemsize]
+    for d in reversed(dims[1:]):
+        strides.insert(0, builder.mul(strides[0], d))
+    populate_array(out, data=builder.bitcast(ptr, out.data.type), shape=dims,
+                   strides=strides, itemsize=itemsize, meminfo=None)
+    return out._getvalue()
+
+
+@intrinsic
+def _clothed(typingctx, bare):
+    """``(ln, K2, Q, ends)``: the arrays of a :class:`_Bare`, viewed again (borrowed), their
+    shapes :data:`_SHAPES`, :data:`~sweep.kernels.march.SCRATCH_SHAPES` and ``bare.n``.
+    One intrinsic, not a view per array (numba's ``carray``, or an intrinsic each): those
+    cost the first compile their front end at each of the three call sites, and a helper
+    compiled without reference counts may not call ``carray``'s function at all."""
+    if not (isinstance(bare, types.BaseNamedTuple) and bare.instance_class is _Bare):
+        raise numba.core.errors.TypingError(f"a lanes._Bare is needed, got {bare}")
     _, k2, q = SCRATCH_SHAPES
-    return ln, c(bare.K2, k2), c(bare.Q, q), c(bare.ends, (bare.n, N_ENDING))
+    # Shapes as Python tuples, None for a dimension of n (um: (n,), ends: (n, N_ENDING)).
+    shapes = [_shape(s) for s in _SHAPES] + [(None,), _shape(k2), _shape(q),
+                                             (None, N_ENDING)]
+    kinds = [*bare.types[0].types, *bare.types[1:4]]
+    arrays = [types.Array(k.dtype, len(s), "C") for k, s in zip(kinds, shapes)]
+    lanes_type = types.NamedTuple(arrays[:len(Lanes._fields)], Lanes)
+    result = types.Tuple((lanes_type, *arrays[len(Lanes._fields):]))
+
+    def codegen(context, builder, signature, args):
+        intp, (packed, first, last) = types.intp, (args[0], len(Lanes._fields), 4)
+        n = context.cast(builder, builder.extract_value(packed, last), bare.types[last], intp)
+        lanes = builder.extract_value(packed, 0)
+        ptrs = [builder.extract_value(lanes, j) for j in range(first)]
+        ptrs += [builder.extract_value(packed, j) for j in range(1, last)]
+        views = [_viewed(context, builder, k, ptr, [n if d is None else
+                                                      context.get_constant(intp, d) for d in s])
+                 for k, ptr, s in zip(kinds, ptrs, shapes)]
+        ln = context.make_tuple(builder, lanes_type, views[:first])
+        return context.make_tuple(builder, result, [ln, *views[first:]])
+    return result(bare), codegen
 
 
 @jit(inline="always")
