@@ -23,7 +23,7 @@ order: the Endings are bit-identical to it whatever the other lanes hold
 A lane's march between two steps is a :class:`~sweep.kernels.march.State`; it is kept in
 the columns of a few arrays (:class:`Lanes`), each field a row of the lanes, and read back
 into the named tuple for the steps that need the march's code.
-Inside the march those arrays, and the caller's, are borrowed views (:func:`_borrowed`):
+Inside the march those arrays, and the caller's, are borrowed views (:func:`_clothed`):
 numba updates an array's reference count, an atomic operation, wherever an array variable
 is copied, at every inlined call level, and in the lanes' loop, where nothing waits on
 latency to hide them, those updates took 70% of the time (``perf``: the ``lock`` of
@@ -134,22 +134,6 @@ def _data(typingctx, arr):
     def codegen(context, builder, signature, args):
         return context.make_array(signature.args[0])(context, builder, args[0]).data
     return types.CPointer(arr.dtype)(arr), codegen
-
-
-@jit(inline="always")
-def _borrowed(a):
-    """``a`` without ownership: numba updates an array's reference count (an atomic
-    operation) wherever its variable is copied, at every inlined call level; in the lanes'
-    loop, where nothing waits on latency to hide them, those updates took 70% of the time.
-    A view without a memory record skips them. The owner must outlive it."""
-    return numba.carray(_data(a), a.shape)
-
-
-@jit(inline="always")
-def _borrow(ln):
-    b = _borrowed
-    return Lanes(b(ln.point), b(ln.live), b(ln.LF), b(ln.LI), b(ln.CR), b(ln.SF), b(ln.SI),
-                 b(ln.u), b(ln.w), b(ln.h), b(ln.y), b(ln.K), b(ln.S), b(ln.um))
 
 
 #: Shapes of the arrays of :class:`Lanes`, in its order, but ``um`` (one per point): made by
@@ -636,10 +620,12 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
     # the lanes' loop 3-5% (its code laid out anew).
     own = _lanes(umax_undamped_many(alpha, gtilde, todo))
     _, K2_own, Q_own = scratch()
-    b = _borrowed
-    ln, K2, Q = _borrow(own), b(K2_own), b(Q_own)
-    ends = b(ends)     # the others are read once per point
-    bare = _bare(ln, K2, Q, ends)
+    # Borrowed views of them (the others are read once per point): numba updates an array's
+    # reference count (an atomic operation) wherever its variable is copied, at every
+    # inlined call level; in the lanes' loop, where nothing waits on latency to hide them,
+    # those updates took 70% of the time. Views without a memory record skip them.
+    bare = _bare(own, K2_own, Q_own, ends)
+    ln, K2, Q, ends = _clothed(bare)
     order = _general_first(alpha, beta, todo)
     nxt = _refill(bare, np.int64(0), alpha, beta, gamma, gtilde, todo, steps, budget, order)
     vec = vector_groups(ln.LF, ln.LI, ln.S)    # again whenever lanes take points
