@@ -548,7 +548,8 @@ def _vput(a, at, bits, x):
 
 
 # The lanes' rare per-lane paths, called, not inlined: inlined, each copied the march's
-# step logic into the driver at compile time.
+# step logic into the driver at compile time. Rare but for a lane whose damping cap can
+# bind, which takes both at every step: hence their one argument, the lanes' _Bare.
 @jit(counted=False)
 def _sized_or_ended(bare, lane):
     """Where :func:`_guessed_group` did not size ``lane``'s step: its size by
