@@ -219,16 +219,17 @@ def _clothed(typingctx, bare):
     result = types.Tuple((lanes_type, *arrays[len(Lanes._fields):]))
 
     def codegen(context, builder, signature, args):
-        intp, (packed, first, last) = types.intp, (args[0], len(Lanes._fields), 4)
-        n = context.cast(builder, builder.extract_value(packed, last), bare.types[last], intp)
+        intp, packed = types.intp, args[0]
+        at_n = _Bare._fields.index("n")      # the fields: lanes, K2, Q, ends, n
+        n = context.cast(builder, builder.extract_value(packed, at_n), bare.types[at_n], intp)
         lanes = builder.extract_value(packed, 0)
-        ptrs = [builder.extract_value(lanes, j) for j in range(first)]
-        ptrs += [builder.extract_value(packed, j) for j in range(1, last)]
+        ptrs = [builder.extract_value(lanes, j) for j in range(len(Lanes._fields))]
+        ptrs += [builder.extract_value(packed, j) for j in range(1, at_n)]
         views = [_viewed(context, builder, k, ptr, [n if d is None else
                                                       context.get_constant(intp, d) for d in s])
                  for k, ptr, s in zip(kinds, ptrs, shapes)]
-        ln = context.make_tuple(builder, lanes_type, views[:first])
-        return context.make_tuple(builder, result, [ln, *views[first:]])
+        ln = context.make_tuple(builder, lanes_type, views[:len(Lanes._fields)])
+        return context.make_tuple(builder, result, [ln, *views[len(Lanes._fields):]])
     return result(bare), codegen
 
 
