@@ -21,10 +21,11 @@ Figures (``name``; the target is issue 10's, "on this 2-core machine"):
   run (warm kernel cache); points / ``run_time_s`` (the chunks' wall time: kernels, design,
   saving, writing; read from the output file), the best of ``--repeat`` rounds, the
   process's wall time beside it.
-* ``sobol_1m_threads_2v1``: the same run with ``NUMBA_NUM_THREADS=2`` over ``=1``, the (lower)
-  median of ``--repeat`` paired rounds (every round's ratio beside it); beside it the median round's
-  two ``kernel_time_s`` and their ratio (the kernels alone, inside the runs: the
-  background writer's zlib takes its CPU from them on two threads, from the idle core on one).
+* ``sobol_1m_threads_2v1``: the same run with ``NUMBA_NUM_THREADS=2`` over ``=1``, the
+  (lower) median of ``--repeat`` paired rounds (every round's ratio beside it); beside it
+  the median round's two ``kernel_time_s`` and their ratio (the kernels alone, inside the
+  runs: the background writer's zlib takes its CPU from them on two threads, from the idle
+  core on one).
 * ``startup_compile_fresh``: a fresh process with an empty kernel cache (``NUMBA_CACHE_DIR``
   a new temporary directory) calls every method of ``sweep.METHODS`` once with scalars
   (serial kernels) and once on 4,096 points (parallel kernels), then the integrator for
@@ -216,9 +217,9 @@ def sobol_figures(args, machine):
     """End-to-end points/s of the Sobol run on all numba threads, and 2 threads over 1.
 
     ``--repeat`` rounds, each a run on every thread count in turn: the end-to-end figure is
-    the best round's, the ratio the (lower) median of the rounds' paired ratios (each round's runs
-    minutes apart at most, so a drift of the shared machine's speed shows in the spread of
-    the ratios, not in their median), every round's ratio beside it."""
+    the best round's, the ratio the (lower) median of the rounds' paired ratios (each
+    round's runs minutes apart at most, so a drift of the shared machine's speed shows in
+    the spread of the ratios, not in their median), every round's ratio beside it."""
     everyone = sweep_threads()
     counts = sorted({everyone, 2, 1}, reverse=True)
     rounds = []

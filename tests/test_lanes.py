@@ -173,7 +173,7 @@ def test_bare_lanes_view_the_same_memory_with_the_same_shapes():
 
     rng = np.random.default_rng(0)
     ends = rng.random((5, N_ENDING))
-    K, K2, Q = scratch()      # the march's own scratch, as march_lanes makes it
+    _, K2, Q = scratch()      # the march's own scratch, as march_lanes makes it
     K2[:], Q[:] = rng.random(K2.shape), rng.random(Q.shape)
     same, shapes = round_trip(rng.random(5), K2, Q, ends)
     assert same and shapes

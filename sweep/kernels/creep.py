@@ -13,11 +13,12 @@ energy ``H = v^2/2 + F(u) = 1/2 - q``.
 * Slow branch (kappa < 0). On the way back a heavily damped bead follows the overdamped branch
   ``v = V(u)`` of ``v dv/du = g~ - u^alpha - gamma beta u^(beta-1) v``, which attracts neighbouring
   trajectories at the rate ``gamma beta u^(beta-1)``; where ``eps <= eps_t / 2`` (``/ 10`` under
-  a load; ``eps_t = min(1/(30 |kappa|), 1/(16 p))``) and the state is near it (``|phi - 1 - p eps| <= 0.1``, ``phi = -gamma beta v / u^p``),
-  :func:`jump` moves the bead along it to ``u_t`` with ``eps(u_t) = eps_t`` (raised to 1.1 u-bar
-  under a load), landing on ``v = V phi`` with ``V = (g~ - u^alpha) / (gamma beta u^(beta-1))``
-  the leading-order branch and ``phi(eps) = 1 + p eps + ...`` its series (``PHI_TERMS``; under a
-  load plus ``(beta - 1) eps g~ / u^alpha``). The placement error is damped by
+  a load; ``eps_t = min(1/(30 |kappa|), 1/(16 p))``) and the state is near it
+  (``|phi - 1 - p eps| <= 0.1``, ``phi = -gamma beta v / u^p``), :func:`jump` moves the bead
+  along it to ``u_t`` with ``eps(u_t) = eps_t`` (raised to 1.1 u-bar under a load), landing
+  on ``v = V phi`` with ``V = (g~ - u^alpha) / (gamma beta u^(beta-1))`` the leading-order
+  branch and ``phi(eps) = 1 + p eps + ...`` its series (``PHI_TERMS``; under a load plus
+  ``(beta - 1) eps g~ / u^alpha``). The placement error is damped by
   ``exp(-1/(|kappa| eps_t)) <= e^-30`` before the exit. The time skipped is the integral of
   ``du / |V phi|`` by Gauss-Legendre quadrature in ``log u``, plus the bead's lag behind the
   branch at departure, ``-(v - V phi) / (D_eff V phi)``, which the attraction does not undo

@@ -43,12 +43,13 @@ back (:func:`_regrouped`).
 
 Cost (one core, KK, ``python benchmarks/step_cost.py``): 15.9 ns a step with 12 lanes
 (2026-12-05, 17:55 UTC; the stages, their combination and errors 13.2 ns of it), 18.2-18.5
-ns with 8 (15:45 UTC), 19.5-20 before the first stages were carried in the scratch, 21.2 before the
-moves and sizes went as vectors, 28 ns before the vector groups' stages stayed in their
-scratch and the rare per-lane paths were called (:func:`_finished`,
+ns with 8 (15:45 UTC), 19.5-20 before the first stages were carried in the scratch, 21.2
+before the moves and sizes went as vectors, 28 ns before the vector groups' stages stayed
+in their scratch and the rare per-lane paths were called (:func:`_finished`,
 :func:`_sized_or_ended`), 40 before the vector groups, 51 before the uneventful steps were
-moved in place, 48-53 ns on 2026-12-01 (against 78 for one point's march then); with 8 lanes the stages,
-their combination and errors alone took 16 ns of it (``benchmarks/lanes.py``). Its first
+moved in place, 48-53 ns on 2026-12-01 (against 78 for one point's march then); with 8
+lanes the stages, their combination and errors alone took 16 ns of it
+(``benchmarks/lanes.py``). Its first
 compile, the called paths included, takes about 4 s of the first ``sweep.cor()``'s 12-15 s.
 
 Owns: the multi-point driver and the layout of its lanes. May import: contact, creep,
