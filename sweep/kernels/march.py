@@ -661,13 +661,14 @@ def after_stages_estimated(st, c, k, s, u1, w1, dr, ew, eq, K, K2, Q, rest_tol, 
     (:func:`sweep.kernels.stepper.local_error` of ``K`` and ``s``), which the lanes form
     for all lanes in one tight loop: per lane, after the stages, their chains of dependent
     multiply-adds held the core (about 17% of the lanes' time by ``perf``, 6% in one loop;
-    7-10% less time a KK step). Formed again where the damping cap may retake the step
-    (new stages, another size)."""
+    7-10% less time a KK step). Formed again where the damping cap retook the step (new
+    stages, another size)."""
     n = st.n + 1
     if st.p.capped:
         u1, w1, dr, s, n = _capped(st.u, st.w, s, u1, w1, dr, K[0, 0], K[0, 1], K[0, 2], st.p,
                                    K, c, n, max_steps)
-        _, ew, eq = local_error(K, s)
+        if n != st.n + 1:   # retaken (counted) in new stages; most capped steps keep theirs
+            _, ew, eq = local_error(K, s)
     return _finish_step(st, c, k, u1, w1, dr, ew, eq, s, n, K, K2, Q, rest_tol, e_tol)
 
 
