@@ -353,8 +353,9 @@ def coefficients(alpha: Any, beta: Any, gtilde: Any, method: str = "numint",
     Returns
     -------
     I, Q : ndarray or float
-        NaN at invalid points of an array call; a scalar call with an invalid value raises
-        ``ValueError`` naming it.
+        NaN at invalid points of an array call, and at valid g~ beyond the range of I, Q
+        (theta of (43) underflows, g~ ~ 1e300); a scalar call at such a point raises
+        ``ValueError`` naming the value or the cause.
     """
     if method not in ("numint", "approx"):
         raise ValueError(f"method must be one of ('numint', 'approx'), got {method!r}")

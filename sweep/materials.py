@@ -163,6 +163,13 @@ def tsuji_gamma0(e: float, m: float, k: float) -> float:
     return gamma / per_gamma0
 
 
+#: Largest relative distance of the e that :func:`gamma0_for_cor`'s gamma0 gives from the e
+#: asked. Brent's method sets gamma to 1e-13 relative; near the stick threshold e changes
+#: faster than that lets it be set (KK at v0 = 0.01 m/s: within 7e-5 of e = 1e-6, 8% of
+#: 1e-7), and past it e falls to 0, where no damping gives the e asked.
+REACHED = 0.1
+
+
 def gamma0_for_cor(e: float, v0: float, m: float, k: float, alpha: float, beta: float,
                    g: float = 9.81, F: float = 0.0, steps: float | None = None) -> float:
     """The gamma0 for which the numerical CoR at (v0, g, F) is e.
@@ -192,7 +199,7 @@ def gamma0_for_cor(e: float, v0: float, m: float, k: float, alpha: float, beta: 
     Raises
     ------
     ValueError
-        A bad value (named), or an e that no damping reaches.
+        A bad value (named), or an e that no damping reaches (to :data:`REACHED`).
     """
     from scipy.optimize import brentq
 
@@ -211,5 +218,12 @@ def gamma0_for_cor(e: float, v0: float, m: float, k: float, alpha: float, beta: 
         if hi > 1e6:
             raise ValueError(f"no damping gives e = {e!r} at v0 = {v0!r} m/s")
     gamma = brentq(excess, 0.0, hi, xtol=1e-300, rtol=1e-13, maxiter=200)
+    got = api.cor(alpha, beta, gamma, gtilde, steps=steps)
+    if not abs(got - e) <= REACHED * e:
+        # Brent's method ends at a jump of e instead: the stick threshold, where e falls
+        # to 0 within gamma0's rounding (or an e below what the march resolves, reported 0).
+        raise ValueError(f"no damping gives e = {e!r} at v0 = {v0!r} m/s: e falls past it "
+                         f"to {got:.3g} at gamma0 = {gamma / per_gamma0:.6g} (near the "
+                         "stick threshold e moves faster than gamma0 can be set)")
     return float(gamma / per_gamma0)
 

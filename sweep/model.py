@@ -16,6 +16,7 @@ live there, once).
 """
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numba as nb
@@ -131,29 +132,43 @@ def _check_load(load: np.ndarray, args: dict) -> None:
 
 
 def _scaled(args: dict, load: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """gamma and g~ of eq. (2); called under ``np.errstate`` ignoring over- and underflow,
-    which are dealt with here."""
+    """gamma and g~ of eq. (2), element by element in compiled scalar arithmetic
+    (:func:`_gamma_at`, :func:`_gtilde_at`): numpy's own powers take a SIMD loop for
+    contiguous arrays and libm for scalars and strided views, whose last bits differ (1-2
+    ulp at 4% of general-exponent points), so a scene's gamma depended on the array's
+    layout. Called under ``np.errstate`` ignoring over- and underflow."""
     m_, k_, g0, v0_, a, b = (args[n] for n in ("m", "k", "gamma0", "v0", "alpha", "beta"))
-    ap1 = a + 1.0
-    gamma = g0 * v0_ ** (2.0 * b / ap1 - 1.0) * (k_ / m_) ** (1.0 - b / ap1)
-    gtilde = (m_ / k_) ** (1.0 / ap1) * v0_ ** (-2.0 * a / ap1) * load
-    # A factor (k/m, v0^p) may overflow or underflow where the product is representable
-    # (m = 1e-300, k = 1e300): there, and only there (elsewhere results stay bit for bit
-    # those of the plain formula), sum the logarithms instead. log 0 = -inf gives 0.
-    redo = ~np.isfinite(gamma) | ((gamma == 0) & (g0 > 0))
-    if np.any(redo):
-        log = (np.log(g0) + (2.0 * b / ap1 - 1.0) * np.log(v0_)
-               + (1.0 - b / ap1) * (np.log(k_) - np.log(m_)))
-        gamma = np.where(redo, np.exp(log), gamma)
-    redo = ~np.isfinite(gtilde) | ((gtilde == 0) & (load > 0))
-    if np.any(redo):
-        log = ((np.log(m_) - np.log(k_)) / ap1 - 2.0 * a / ap1 * np.log(v0_)
-               + np.log(load))
-        gtilde = np.where(redo, np.exp(log), gtilde)
+    gamma = _gamma_ufunc(m_, k_, g0, v0_, a, b)
+    gtilde = _gtilde_ufunc(m_, k_, v0_, a, load)
     _refuse_non_finite("gamma", gamma, args)
     _refuse_non_finite("gtilde", gtilde, args)
     _refuse_outside_domain("gamma", gamma, args)
     return gamma, gtilde
+
+
+def _gamma_at(m: float, k: float, gamma0: float, v0: float, alpha: float,
+              beta: float) -> float:
+    """gamma of eq. (2) at one point."""
+    ap1 = alpha + 1.0
+    gamma = gamma0 * v0 ** (2.0 * beta / ap1 - 1.0) * (k / m) ** (1.0 - beta / ap1)
+    # A factor (k/m, v0^p) may overflow or underflow where the product is representable
+    # (m = 1e-300, k = 1e300): there, and only there (elsewhere results stay bit for bit
+    # those of the plain formula), sum the logarithms instead. Compiled, log 0 = -inf (no
+    # exception), which gives 0.
+    if math.isfinite(gamma) and not (gamma == 0.0 and gamma0 > 0.0):
+        return gamma
+    return math.exp(math.log(gamma0) + (2.0 * beta / ap1 - 1.0) * math.log(v0)
+                    + (1.0 - beta / ap1) * (math.log(k) - math.log(m)))
+
+
+def _gtilde_at(m: float, k: float, v0: float, alpha: float, load: float) -> float:
+    """g~ of eq. (2) at one point, ``load`` = g + F/m; as :func:`_gamma_at`."""
+    ap1 = alpha + 1.0
+    gtilde = (m / k) ** (1.0 / ap1) * v0 ** (-2.0 * alpha / ap1) * load
+    if math.isfinite(gtilde) and not (gtilde == 0.0 and load > 0.0):
+        return gtilde
+    return math.exp((math.log(m) - math.log(k)) / ap1 - 2.0 * alpha / ap1 * math.log(v0)
+                    + math.log(load))
 
 
 def _refuse_outside_domain(quantity: str, value: np.ndarray, args: dict) -> None:
@@ -169,12 +184,15 @@ def _refuse_outside_domain(quantity: str, value: np.ndarray, args: dict) -> None
 
 
 def _ufunc(scalar):
-    # One formula (sweep.kernels.contact) in two compiled forms: inlined in the kernels and
-    # a numpy ufunc here, compiled on first use.
+    # One formula (sweep.kernels.contact, or here) in compiled forms: inlined in the kernels
+    # and a numpy ufunc here, compiled on first use; one scalar arithmetic whatever the
+    # arrays' layout (numba here has no SVML to vectorise the powers).
     with kernel_cache():
-        return nb.vectorize(cache=True)(scalar.py_func)
+        return nb.vectorize(cache=True)(getattr(scalar, "py_func", scalar))
 
 
+_gamma_ufunc = _ufunc(_gamma_at)
+_gtilde_ufunc = _ufunc(_gtilde_at)
 _equilibrium = _ufunc(contact.equilibrium)
 _natural_frequency = _ufunc(contact.natural_frequency)
 _damping_ratio = _ufunc(contact.damping_ratio)

@@ -264,9 +264,10 @@ def short_repr(value: Any, width: int = 60) -> str:
 def real_array(name: str, value: Any) -> np.ndarray:
     """``value`` as float64, if it holds real numbers: Python or numpy ints and floats.
 
-    Strings, bytes, booleans, complex numbers, None and object arrays are refused rather
-    than converted: numpy would parse ``"0.1"``, take ``True`` as 1 and ``None`` as NaN,
-    answering for an input the caller did not mean.
+    Strings, bytes, booleans, complex numbers, None, object arrays and masked arrays with
+    masked values are refused rather than converted: numpy would parse ``"0.1"``, take
+    ``True`` as 1, ``None`` as NaN and a masked value as the data under the mask, answering
+    for an input the caller did not mean.
 
     Parameters
     ----------
@@ -283,6 +284,10 @@ def real_array(name: str, value: Any) -> np.ndarray:
     ValueError
         One line naming the parameter and the value (and its type).
     """
+    if np.ma.isMaskedArray(value) and np.ma.count_masked(value):
+        # np.asarray drops the mask and hands on the values it hides.
+        raise ValueError(f"{name} has {np.ma.count_masked(value)} masked value(s), whose "
+                         "hidden data would be used: fill them first (np.ma.filled)")
     try:
         arr = np.asarray(value)       # the caller's own type, judged before any conversion
     except (TypeError, ValueError):   # ragged nested sequences
@@ -333,12 +338,16 @@ class Option:
     """A keyword option of a method: its default and its rule.
 
     ``check(value) -> bool`` must accept the default; a value of None means the default.
+    ``plain(value)``: the accepted value as the plain Python type the kernels take, so that
+    its numpy type cannot change a result (a float32 ``tol`` computed its resolution and
+    target in float32: other bits than the same value as a float).
     """
 
     name: str
     default: Any
     check: Callable[[Any], bool]
     rule: str
+    plain: Callable[[Any], Any] = float
 
     def to_attr(self, value: Any) -> Any:
         """The value as a netCDF attribute, in the type of the default (TOML's
@@ -463,7 +472,7 @@ class Method:
                 value = opt.default
             if value is not None and not opt.check(value):
                 raise ValueError(f"{key} must be {opt.rule}, got {value!r}")
-            out[key] = value
+            out[key] = value if value is None else opt.plain(value)
         return out
 
     def defined_at(self, alpha: Any, beta: Any) -> np.ndarray:
@@ -501,13 +510,14 @@ _INTEGRATOR_OPTIONS = (
     Option("max_steps", 200_000, lambda v: _is_number(v) and 1 <= v <= MAX_STEP_BUDGET
            and float(v).is_integer(),
            f"an integer in [1, 2**{_BUDGET_POWER}] (step budget per point, every march "
-           "included)"),
+           "included)", int),
     Option("refine", True, lambda v: isinstance(v, (bool, np.bool_)),
            "true or false (check points whose error indicator is above the target against "
-           "a companion march and march them again, finer; false: one fixed-step march)"),
+           "a companion march and march them again, finer; false: one fixed-step march)",
+           bool),
     Option("device", "cpu", lambda v: isinstance(v, str) and v in DEVICES,
            "\"cpu\" or \"cuda\" (where the integration runs: every CPU core, or one CUDA "
-           "GPU through the optional numba-cuda, pip install 'sweep[cuda]')"),
+           "GPU through the optional numba-cuda, pip install 'sweep[cuda]')", str),
 )
 #: Largest order n of the Chebyshev-Beta approximation (49) that the kernels evaluate (their
 #: quadrature table, sweep.kernels.special, is built for it).
@@ -515,7 +525,7 @@ CHEBYSHEV_N_MAX = 621
 _CHEBYSHEV_N = Option("n", 21,
                       lambda v: _is_int(v) and 1 <= v <= CHEBYSHEV_N_MAX and v % 2 == 1,
                       f"an odd integer in [1, {CHEBYSHEV_N_MAX}] (number of Chebyshev nodes, "
-                      "eq. (49))")
+                      "eq. (49))", int)
 _ORD2 = ("e = min(sqrt(max(e^2, 0)), e_s), report Prop. 2, eqs. (36)-(38), with I(g~) and "
          "Q(g~) ")
 

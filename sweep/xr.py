@@ -117,8 +117,8 @@ def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
     **options
         Passed to :func:`sweep.cor`: the method's options (:attr:`sweep.registry.Method.options`:
         ``tol``, ``steps``, ``rest_tol``, ``max_steps``, ``refine``, ``device`` for
-        ``"numeric"`` and ``"auto"``; ``n`` for ``"ord2_approx"``) and ``parallel``;
-        checked at call time. The result's attributes record them, defaults resolved
+        ``"numeric"`` and ``"auto"``; ``n`` for ``"ord2_approx"``) and, for
+        ``"numeric"``, ``parallel``; checked at call time. The result's attributes record them, defaults resolved
         (``steps`` "default" where ``tol`` chooses the resolution).
 
     Returns
@@ -174,6 +174,8 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any,
         dask-backed (lazy, one integration per block) if any input is. Global attributes: ``method``
         ("numeric"), ``equation`` and the integrator settings used.
     """
+    # Any other keyword named as sweep.cor names it, not by Python's TypeError.
+    registry.method("numeric").refuse_unknown(options, extra=("parallel",))
     probe = _probe(api.integrate, **options)
     # Names and dtypes come from the function itself, so a new field needs no edit here.
     dtypes = {f.name: np.asarray(getattr(probe, f.name)).dtype

@@ -1,4 +1,5 @@
 """sweep.kernels.approx: the report's closed-form approximations of the CoR, as vectorised kernels."""
+import math
 import threading
 
 import numba
@@ -151,6 +152,22 @@ def test_sp_equals_ord2_linearisation_at_zero_load():
     i0, q0 = sweep.coefficients_at_zero(1.5, 1.5)
     es = 1 - 1.5 * i0 * gamma + 1.5 ** 2 * i0 * (q0 - i0 / 2) * gamma ** 2
     np.testing.assert_allclose(e_sp, es, atol=2e-8 * gamma.max() ** 2 + 1e-15)
+
+
+def test_large_gtilde_where_the_load_power_alone_overflows():
+    # g~^r = inf while 2 gamma C g~^r is small (a tiny gamma) or 0 (gamma = 0): the kernel
+    # gave e = 0 with status OK, and NaN / INVALID at gamma = 0. Reference: (23) in logs.
+    c, r = 4.4039857765502886, 11 / 6
+    gamma = np.array([5e-324, 1e-300, 0.0, 0.0, 1e-3])
+    gt = np.array([1e169, 1e200, 1e200, 1e300, 1e200])
+    log_term = [math.log(2 * g * c) + r * math.log(x) if g > 0 else -math.inf
+                for g, x in zip(gamma, gt)]
+    term = [math.exp(x) if x < 700 else math.inf for x in log_term]
+    want = np.sqrt(np.maximum(1 - np.array(term), 0))
+    e, status = sweep.cor_with_status(*KK, gamma, gt, method="large_gtilde")
+    assert list(status) == [Status.OK] * 5
+    np.testing.assert_allclose(e, want, rtol=1e-14, atol=0)
+    assert e[2] == e[3] == 1.0 and e[4] == 0.0 and 0 < 1 - e[0] < 1e-12
 
 
 @pytest.mark.parametrize("alpha, beta", [KK, (1.0, 1.0), (1.5, 1.0), (1.5, 2.5)])

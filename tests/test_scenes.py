@@ -360,3 +360,22 @@ def test_hertz_stiffness_needs_the_registrys_hertz_alpha(monkeypatch):
     assert config.loads(cubic).design.materials[0].alpha == 2.0
     with pytest.raises(config.ConfigError, match=r"glass.E: .*needs alpha = 2, got 1.5"):
         config.loads(PROPERTIES)
+
+
+@pytest.mark.parametrize("e, v0, alpha, beta", [
+    (1e-8, 1.0, 1.5, 1.0),      # Hertz: e falls from ~1e-9 straight to 0 within rounding
+    (1e-12, 1.0, 1.5, 1.5),
+    (1e-30, 1.0, 1.5, 1.5),
+])
+def test_gamma0_for_cor_refuses_an_e_that_no_damping_gives(e, v0, alpha, beta):
+    # Brent's method ends at the stick threshold, where e jumps to 0: that gamma0 gave e = 0
+    # (STUCK) without a word.
+    with pytest.raises(ValueError, match=f"^no damping gives e = {e!r} at v0 = {v0!r} m/s"):
+        materials.gamma0_for_cor(e, v0, 2.05e-3, 9.858e9, alpha, beta)
+
+
+@pytest.mark.parametrize("e", [0.5, 1e-3, 1e-6])
+def test_gamma0_for_cor_gives_small_e_it_can_reach(e):
+    gamma0 = materials.gamma0_for_cor(e, 1.0, 2.05e-3, 9.858e9, 1.5, 1.5)
+    gamma, gtilde = sweep.scale(2.05e-3, 9.858e9, gamma0, 1.0, 1.5, 1.5)
+    assert sweep.cor(1.5, 1.5, gamma, gtilde) == pytest.approx(e, rel=materials.REACHED)

@@ -168,14 +168,16 @@ def test_bad_options_raise_at_call_time_even_for_dask_inputs():
         sx.cor(1.5, 1.5, gamma, 1.0, method="ord2_approx", n=4)
     with pytest.raises(ValueError, match="method"):
         sx.cor(1.5, 1.5, gamma, 1.0, method="ord3")
-    with pytest.raises(TypeError):
-        sx.integrate(1.5, 1.5, gamma, 1.0, stepz=16)
     for method in ("numeric", "ord1"):   # sweep.cor's error (numeric's was integrate()'s)
         with pytest.raises(ValueError) as expected:
             sweep.cor(1.5, 1.5, GAMMA, 1.0, method=method, stepz=16)
         with pytest.raises(ValueError) as got:
             sx.cor(1.5, 1.5, gamma, 1.0, method=method, stepz=16)
         assert str(got.value) == str(expected.value)
+        if method == "numeric":          # Python's TypeError, until 2026-12-07
+            with pytest.raises(ValueError) as got:
+                sx.integrate(1.5, 1.5, gamma, 1.0, stepz=16)
+            assert str(got.value) == str(expected.value)
     with pytest.raises(TypeError, match="DataArray"):
         sx.cor(1.5, 1.5, GAMMA, 1.0)                 # bare arrays have no dimension names
 

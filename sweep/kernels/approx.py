@@ -133,6 +133,19 @@ def _constants(code, a, b):
 
 
 @jit(inline="always")
+def _large_term(g, gt, c, r):
+    """``2 gamma C g~^r`` of (23). Where ``g~^r`` alone overflows the product need not
+    (a tiny gamma: it gave e = 0 with status OK where (23) gives 1 - 1.5e-13; gamma = 0
+    gave 0 inf = NaN): there, and only there, in logarithms."""
+    p = gt ** r
+    if p < math.inf:
+        return 2.0 * g * c * p
+    if g == 0.0:
+        return 0.0
+    return math.exp(math.log(2.0 * g * c) + r * math.log(gt))
+
+
+@jit(inline="always")
 def _evaluate(code, b, g, gt, k1, k2, x1, x2):
     """``(e, good)`` of one valid point: e of the method (NaN for the coefficient codes)
     and whether the point's outputs are finite."""
@@ -144,7 +157,7 @@ def _evaluate(code, b, g, gt, k1, k2, x1, x2):
     elif code == _SP:
         ev = _clip01(1.0 - g * (k1 + gt * k2) - g * g * SP_C2)
     elif code == _LARGE:
-        ev = _sqrt_plus(1.0 - 2.0 * g * k1 * gt ** k2)
+        ev = _sqrt_plus(1.0 - _large_term(g, gt, k1, k2))
     elif code == _ORD2_NUMINT or code == _ORD2_APPROX:
         if math.isfinite(x1) and math.isfinite(x2):
             ev = _ord2(b, g, x1, x2)
