@@ -28,7 +28,7 @@ __all__ = ["integrate", "cor", "cor_with_status", "cor_fields", "IntegrationResu
            "APPROXIMATIONS", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL",
            "coefficients", "coefficients_at_zero", "first_order_coefficients",
            "large_gtilde_coefficient", "SP_C2", "integrator_settings", "method_settings",
-           "recorded_settings"]
+           "recorded_settings", "given_options", "method_arrays"]
 
 #: The report's closed-form approximations (Sections 4-5) built into the package.
 APPROXIMATIONS = registry.approximations()
@@ -221,24 +221,59 @@ def cor_fields(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "nu
         m.refuse_unknown(options, extra=("parallel",))
         r = integrate(alpha, beta, gamma, gtilde, **options)
         return {f.name: getattr(r, f.name) for f in dataclasses.fields(r)}
-    # Validate every option, but pass the kernel only those given: it knows its defaults,
-    # and a composite method (auto) must tell a given resolution from the default one.
-    checked = m.check_options(options)
+    checked, given = given_options(method, options)
     b = broadcast_points(alpha, beta, gamma, gtilde)
+    e, status, fields, missed = method_arrays(method, *b.flat, given)
+    if b.scalar and status[0] == Status.INVALID:
+        _undefined_raise(m, b, checked)
+    _warn_missed(m, missed, checked.get("tol"))
+    st = b.restore(status)
+    out = {"e": b.restore(e), "status": Status(st) if b.scalar else st}
+    out.update({name: b.restore(value) for name, value in fields.items()})
+    return out
+
+
+def given_options(method: str, options: dict[str, Any]) -> tuple[dict, dict]:
+    """``(checked, given)``: every option of ``method`` checked, defaults filled in, and
+    those given, which alone its kernel takes: it knows its defaults, and a composite
+    method (auto) must tell a given resolution from the default one.
+
+    Raises
+    ------
+    ValueError
+        An unknown option or a value its rule rejects (one line naming it).
+    """
+    checked = registry.method(method).check_options(options)
     # An option given as None is not given (check_options put the default there, which
     # "auto" took for a chosen resolution: steps=None gave other numbers than no steps).
-    given = {k: checked[k] for k, v in options.items() if v is not None}
-    e, status, *extra = m.resolve()(*b.flat, **given)
-    undefined = ~m.defined_at(b.flat[0], b.flat[1])
+    return checked, {k: checked[k] for k, v in options.items() if v is not None}
+
+
+def method_arrays(method: str, alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
+                  gtilde: np.ndarray, options: dict[str, Any]) -> tuple:
+    """A method other than the integration on flat float64 arrays: ``(e, status, fields,
+    missed)``, ``fields`` its own per-point outputs and ``missed`` the points whose e may
+    miss the method's ``tol`` (:data:`sweep.registry.MISSED`), of which it does not warn:
+    :func:`cor_fields` warns, a sweep counts them. ``options``: those given, checked by
+    :meth:`sweep.registry.Method.check_options`. NaN / INVALID where the method is not
+    defined."""
+    m = registry.method(method)
+    e, status, *extra = m.resolve()(alpha, beta, gamma, gtilde, **options)
+    fields = dict(extra[0]) if extra else {}
+    missed = fields.pop(registry.MISSED, np.zeros(np.shape(e), dtype=bool))
+    undefined = ~m.defined_at(alpha, beta)
     if undefined.any():
         e = np.where(undefined, np.nan, e)
         status = np.where(undefined, np.int8(Status.INVALID), status).astype(np.int8)
-    if b.scalar and status[0] == Status.INVALID:
-        _undefined_raise(m, b, checked)
-    st = b.restore(status)
-    out = {"e": b.restore(e), "status": Status(st) if b.scalar else st}
-    out.update({name: b.restore(value) for name, value in (extra[0] if extra else {}).items()})
-    return out
+    return e, status, fields, missed
+
+
+def _warn_missed(m: registry.Method, missed: np.ndarray, tol: float | None) -> None:
+    n = int(np.count_nonzero(missed))
+    if n:
+        warnings.warn(f"{n} point(s) integrated by {m.name} may miss tol={tol:g}: their "
+                      "error estimate e_err is above it; integrate gives e_err per point",
+                      RuntimeWarning, stacklevel=4)
 
 
 def cor_with_status(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",

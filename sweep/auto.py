@@ -35,7 +35,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import json
-import warnings
 from pathlib import Path
 from typing import Any
 
@@ -206,19 +205,26 @@ def serve(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: np.nda
     **options
         The integrator's options for the integrated points.
     """
+    return _served(alpha, beta, gamma, gtilde, codes, tol, options)[:2]
+
+
+def _served(alpha, beta, gamma, gtilde, codes, tol, options):
+    """:func:`serve`'s ``(e, status)`` and which points may miss ``tol`` (integrated
+    points whose estimate stayed above it, :func:`_integrated`)."""
     e = np.empty(alpha.size)
     status = np.empty(alpha.size, dtype=np.int8)
+    missed = np.zeros(alpha.size, dtype=bool)
     names = {code: name for name, code in registry.SERVED_BY.items()}
     for code in np.unique(codes):
         idx = np.flatnonzero(codes == code)
         m = registry.METHODS[names[int(code)]]
         if m.integrates:
-            e[idx], status[idx] = _integrated(m, alpha[idx], beta[idx], gamma[idx],
-                                              gtilde[idx], tol, options)
+            e[idx], status[idx], missed[idx] = _integrated(
+                m, alpha[idx], beta[idx], gamma[idx], gtilde[idx], tol, options)
         else:
             e[idx], status[idx] = m.resolve()(alpha[idx], beta[idx], gamma[idx],
                                               gtilde[idx], **m.check_options({}))[:2]
-    return e, status
+    return e, status, missed
 
 
 #: An integrated point whose error estimate is above auto's tol is integrated again at
@@ -231,33 +237,30 @@ RETRY_TOL_FACTORS = (1e-2, 1e-4)
 
 def _integrated(m: registry.Method, alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
                 gtilde: np.ndarray, tol: float, options: dict[str, Any]) -> tuple:
-    """e and status of integrated points, those whose e_err is above ``tol`` (but not out
-    of budget) integrated again (:data:`RETRY_TOL_FACTORS`); a RuntimeWarning for any
-    whose estimate stays above it."""
+    """``(e, status, missed)`` of integrated points, those whose e_err is above ``tol``
+    (but not out of budget) integrated again (:data:`RETRY_TOL_FACTORS`); ``missed``: the
+    points whose estimate stays above it (the front ends warn or count them)."""
     e, status, *extra = m.resolve()(alpha, beta, gamma, gtilde,
                                     **_integrator_options(tol, options))
     if not extra or "e_err" not in extra[0]:   # an integrator without an estimate
-        return e, status
+        return e, status, np.zeros(e.shape, dtype=bool)
     e_err = extra[0]["e_err"]
     for factor in RETRY_TOL_FACTORS:
         above = np.flatnonzero(registry.misses_tol(e_err, status, tol))
         if not above.size:
-            return e, status
+            break
         e[above], status[above], x = m.resolve()(
             alpha[above], beta[above], gamma[above], gtilde[above],
             **_integrator_options(factor * tol, options))
         e_err[above] = x["e_err"]
-    n = int(np.count_nonzero(registry.misses_tol(e_err, status, tol)))
-    if n:
-        warnings.warn(f"{n} point(s) integrated by auto may miss tol={tol:g}: their error "
-                      f"estimate e_err is above it; integrate gives e_err per point",
-                      RuntimeWarning, stacklevel=6)
-    return e, status
+    return e, status, registry.misses_tol(e_err, status, tol)
 
 
 def auto_cor(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: np.ndarray,
              tol: float = 1e-6, **options: Any) -> tuple[np.ndarray, np.ndarray, dict]:
-    """Kernel of ``"auto"`` over flat float64 arrays: ``(e, status, {"method_used": codes})``.
+    """Kernel of ``"auto"`` over flat float64 arrays: ``(e, status, {"method_used": codes,
+    MISSED: missed})``, ``missed`` the integrated points whose error estimate stayed above
+    ``tol`` (:data:`sweep.registry.MISSED`: the api warns of them, a sweep counts them).
 
     Parameters
     ----------
@@ -270,5 +273,5 @@ def auto_cor(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: np.
         that are integrated.
     """
     codes = select(alpha, beta, gamma, gtilde, tol)
-    e, status = serve(alpha, beta, gamma, gtilde, codes, tol, **options)
-    return e, status, {"method_used": codes}
+    e, status, missed = _served(alpha, beta, gamma, gtilde, codes, tol, options)
+    return e, status, {"method_used": codes, registry.MISSED: missed}

@@ -43,7 +43,7 @@ __all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "
            "unregister_method", "register_field", "unregister_field", "method",
            "approximations", "composites", "method_fields", "integrator_fields",
            "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX", "DEVICES",
-           "MAX_STEP_BUDGET", "misses_tol"]
+           "MAX_STEP_BUDGET", "misses_tol", "MISSED"]
 
 #: The report every equation number refers to.
 REPORT = ("A. Chatterjee, G. James, B. Brogliato, Approximate analytical coefficient of "
@@ -73,6 +73,13 @@ class Status(enum.IntEnum):
     #: Invalid input (outside the domain of :data:`PARAMETERS`, or an approximation used
     #: outside its own): ``e = NaN``.
     INVALID = 4
+
+
+#: Key of a method kernel's fields holding, per point, whether e may miss the ``tol`` the
+#: method was asked for (``auto``'s integrated points whose e_err stayed above it): never
+#: returned to a caller; :func:`sweep.api.cor_fields` warns of them, a sweep counts them
+#: with the points above the integrator's tol.
+MISSED = "missed_tol"
 
 
 def misses_tol(e_err: Any, status: Any, tol: float) -> np.ndarray:

@@ -139,6 +139,12 @@ def _err(text):
     ("beta = [1.0, 1.5]", 'beta = "kk"', ["design.beta", "'kk'"]),
     ("start = 0.0, stop = 0.1", "start = -0.1, stop = 0.1", ["design.gamma.start", ">= 0", "-0.1"]),
     ("start = 0.0, stop = 0.1", "start = 0.1, stop = 0.1", ["design.gamma.stop", "> start"]),
+    # Closer than a double's spacing: 5 coordinates of 2 values, run with rc 0 (a CF axis
+    # must increase strictly; .sel gave several points).
+    ("start = 0.0, stop = 0.1", "start = 1.0, stop = 1.0000000000000002",
+     ["design.gamma.num", "5 distinct values", "they give 2"]),
+    ("start = 1e-3", "start = 9.999999999999998",
+     ["design.gtilde.num", "distinct values", "they give"]),
     ("start = 1e-3", "start = 0.0", ["design.gtilde.start", "log", "0.0"]),
     ('spacing = "log"', 'spacing = "cubic"', ["design.gtilde.spacing", "'cubic'"]),
     ('kind = "grid"', 'kind = "lattice"', ["design.kind", "grid, doe, scene", "'lattice'"]),

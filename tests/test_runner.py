@@ -122,7 +122,7 @@ def test_approximations_alone_run_no_integration(tmp_path, monkeypatch):
 
     monkeypatch.setattr(api, "integrate", forbidden)
     text = DOE.replace('fields = ["status", "error_ord1"]', "").replace(
-        'e = ["ord1"]', 'e = ["ord1", "large_gtilde"]')
+        'e = ["ord1"]', 'e = ["ord1", "large_gtilde"]').replace("[integrator]\nsteps = 16\n", "")
     run(text, tmp_path / "a.nc")
     ds = opened(tmp_path / "a.nc")
     assert set(ds.data_vars) == {"e_ord1", "e_large_gtilde"}   # nothing else allocated
@@ -455,6 +455,47 @@ def test_points_whose_estimate_is_above_tol_are_counted(tmp_path):
         ds, res = runner.run_in_memory(config.loads(CAVEAT_GRID + "[integrator]\ntol = 1e-8\n"),
                                        quiet=True)
     assert ds.attrs["points_above_tol"] == 0 and res.caveats["points_above_tol"] == 0
+
+
+def test_auto_counts_its_misses_and_records_the_integrator_it_ran(tmp_path):
+    # auto's points integrated beyond reach of tol = 1e-13 came as Python RuntimeWarnings
+    # (the warm-up's and each chunk's), uncounted, and the file said "integrator: not run".
+    # Reference: the same points through sweep.cor_fields in one call, which warns of them.
+    text = (CAVEAT_GRID.replace('["numeric"]', '["auto"]').replace("stop = 1e-2", "stop = 1.0")
+            .replace("stop = 0.1", "stop = 10.0") + "[options.auto]\ntol = 1e-13\n")
+    cfg = config.loads(text)
+    d = design.build(cfg.design)
+    with pytest.warns(RuntimeWarning, match=r"^\d+ point\(s\) integrated by auto") as w:
+        api.cor_fields(*d.points(0, d.size), method="auto", tol=1e-13)
+    want = int(str(w[0].message).split()[0])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ds, res = runner.run_in_memory(cfg, quiet=True)
+    assert [type(x.message) for x in caught] == [runner.CaveatWarning]
+    assert str(caught[0].message).startswith(f"{want} of 30 points may miss options.auto.tol")
+    assert ds.attrs["points_above_tol"] == want > 0
+    assert "for the points auto integrates" in ds.attrs["integrator"]
+    assert ds.attrs["integrator_tol"] == 1e-13
+
+
+@pytest.mark.parametrize("extra, message", [
+    # Ignored, they would look as if they had shaped the results (device ran on no GPU).
+    ('[integrator]\ndevice = "cuda"\n', "integrator.device: is an option of the integrator"),
+    ("[integrator]\nsteps = 50\n", "integrator.steps: is an option of the integrator"),
+])
+def test_integrator_options_of_a_sweep_that_never_integrates_are_refused(extra, message):
+    with pytest.raises(config.ConfigError, match=message):
+        config.loads(CAVEAT_GRID.replace('["numeric"]', '["ord1"]') + extra)
+
+
+def test_integrator_tol_beside_autos_own_is_refused_unless_numeric_uses_it():
+    text = (CAVEAT_GRID.replace('["numeric"]', '["auto"]')
+            + "[integrator]\ntol = 1e-3\n[options.auto]\ntol = 1e-6\n")
+    with pytest.raises(config.ConfigError, match=r"integrator.tol: is not used: auto "
+                                                 r"integrates at its own tol"):
+        config.loads(text)
+    config.loads(text.replace('["auto"]', '["numeric", "auto"]'))     # numeric's tol
+    config.loads(text.replace("[options.auto]\ntol = 1e-6\n", ""))   # auto's tol then
 
 
 def test_closed_forms_alone_have_no_caveat_counts(tmp_path):

@@ -57,8 +57,9 @@ CONVENTIONS = "CF-1.8"
 
 #: Global attributes counting the points whose e needs a caveat, whatever the file stores:
 #: points that ran out of the step budget in any method (e there is an upper bound), and
-#: the other points whose error estimate e_err is above the integrator's ``tol`` (written
-#: only where ``tol`` is set). ``status`` and ``e_err`` say which, where stored.
+#: the other points whose error estimate e_err is above the integrator's ``tol`` or, where
+#: ``auto`` integrated them, above auto's (written only where a tol is set). ``status``
+#: and ``e_err`` say which, where stored.
 CAVEAT_ATTRS = ("points_budget_exhausted", "points_above_tol")
 
 #: Values of the ``spacing`` attribute of a grid coordinate.

@@ -57,7 +57,8 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     fields = ["status", "error_ord1"]   # or "all": sweep.registry.integrator_fields() (e_err
                                         # too), error_<m> for every approximation in e
 
-    [integrator]                   # passed to sweep.api.integrate
+    [integrator]                   # passed to sweep.api.integrate (refused where nothing
+                                   # integrates; auto integrates with it, at its own tol)
     steps = 64                     # per half period of the linearised motion
     rest_tol = 1e-8
     max_steps = 1000000
@@ -392,7 +393,13 @@ def _grid_axis(design, name):
                          "give the number, or start = stop)", num)
     if spacing == "log" and not start > 0:
         tab.error("start", 'must be > 0 with spacing = "log"', start)
-    return _axis_values(start, stop, num, spacing)
+    values = _axis_values(start, stop, num, spacing)
+    if num > 1 and not all(a < b for a, b in zip(values, values[1:])):
+        # Neighbours closer than a double's spacing round to one value: coordinates that
+        # repeat (a CF axis must increase strictly; .sel would give several points).
+        tab.error("num", f"must leave {num} distinct values from {start!r} to {stop!r} in "
+                         f"double precision (they give {len(set(values))})", num)
+    return values
 
 
 def _grid_list(tab, key, value):
@@ -898,6 +905,24 @@ def _parse_integrator(tab):
     return IntegratorSettings(given=tuple(sorted(given.items())))
 
 
+def _check_integrator_used(tab, integrator, outputs, options):
+    """[integrator]'s options must shape a result: like [options.<method>] of a method not
+    computed, ignored ones would look as if they had (``device = "cuda"`` on a sweep of
+    closed forms ran, rc 0, on no GPU). A composite method (auto) integrates with them,
+    at its own tol where it has one."""
+    given = dict(integrator.given)
+    if given and not (outputs.needs_integration or outputs.composites):
+        key = next(iter(given))
+        tab.error(key, "is an option of the integrator, which this sweep never runs "
+                       "(outputs ask for no e_numeric, integrator field, error field or "
+                       "auto); remove [integrator] or ask for e_numeric", given[key])
+    own = [m for m in outputs.composites if "tol" in options.get(m, {})]
+    if "tol" in given and not outputs.needs_integration and own:
+        tab.error("tol", f"is not used: {own[0]} integrates at its own tol (options."
+                         f"{own[0]}.tol = {options[own[0]]['tol']!r}); remove one",
+                  given["tol"])
+
+
 def _parse_options(tab, outputs):
     options = {}
     approximations = registry.approximations() + registry.composites()
@@ -984,8 +1009,10 @@ def loads(text, source=""):
                      kind)
     design_spec = DESIGN_KINDS[kind](design)
     outputs = _parse_outputs(root.table("outputs", required=True), design_spec)
-    integrator = _parse_integrator(root.table("integrator"))
+    integrator_tab = root.table("integrator")
+    integrator = _parse_integrator(integrator_tab)
     options = _parse_options(root.table("options"), outputs)
+    _check_integrator_used(integrator_tab, integrator, outputs, options)
     run = root.table("run")
     chunk_size = run.get("chunk_size", is_chunk_size, CHUNK_SIZE_RULE, DEFAULT_CHUNK_SIZE)
     compress = run.get("compress", lambda v: isinstance(v, bool), "true or false", True)

@@ -172,11 +172,14 @@ def compute_chunk(plan: ComputePlan, alpha: np.ndarray, beta: np.ndarray, gamma:
     approx = {m: api.cor(alpha, beta, gamma, gtilde, method=m, **plan.options.get(m, {}))
               for m in plan.approximations}
     own = {}  # the composite methods' e and fields
+    missed = np.zeros(alpha.shape, dtype=bool)   # e may miss a composite's own tol
     for m in plan.composites:
-        out = api.cor_fields(alpha, beta, gamma, gtilde, method=m, **plan.options.get(m, {}))
-        approx[m] = out.pop("e")
-        statuses.append(out["status"])
-        own.update({name: value for name, value in out.items() if name != "status"})
+        _, given = api.given_options(m, plan.options.get(m, {}))
+        approx[m], status, fields, m_missed = api.method_arrays(m, alpha, beta, gamma,
+                                                                gtilde, given)
+        statuses.append(status)
+        own.update(fields)
+        missed |= m_missed
     seconds = time.perf_counter() - t0
     arrays = {}
     for name in plan.variables:
@@ -191,7 +194,7 @@ def compute_chunk(plan: ComputePlan, alpha: np.ndarray, beta: np.ndarray, gamma:
             value = own[name] if name in own else getattr(res, name)
         dtype, _ = store.variable_spec(name)
         arrays[name] = np.ascontiguousarray(value, dtype=dtype).reshape(-1)
-    return arrays, seconds, _caveats(plan, res, statuses)
+    return arrays, seconds, _caveats(plan, res, statuses, missed)
 
 
 # Kept with every chunk, written as global attributes and warned of.
@@ -202,17 +205,18 @@ class CaveatWarning(RuntimeWarning):
     """A run's file holds points whose e needs a caveat (:data:`sweep.store.CAVEAT_ATTRS`)."""
 
 
-def _caveats(plan, res, statuses):
-    """(points out of step budget in any method, other points whose e_err is above the
-    integrator's ``tol``) of one chunk."""
-    out = np.zeros(np.shape(statuses[0]) if statuses else 0, dtype=bool)
+def _caveats(plan, res, statuses, missed):
+    """(points out of step budget in any method, other points whose e may miss its tol:
+    e_err above the integrator's ``tol``, or ``missed`` by a composite method at its own)
+    of one chunk."""
+    out = np.zeros(missed.shape, dtype=bool)
     for status in statuses:
         out |= status == registry.Status.BUDGET_EXHAUSTED
     tol = plan.integrator.get("tol")
-    above = 0
+    above = missed.copy()
     if res is not None and tol is not None:
-        above = int(np.count_nonzero(registry.misses_tol(res.e_err, res.status, tol) & ~out))
-    return int(np.count_nonzero(out)), above
+        above |= registry.misses_tol(res.e_err, res.status, tol)
+    return int(np.count_nonzero(out)), int(np.count_nonzero(above & ~out))
 
 
 # --------------------------------------------------------------------------- running
@@ -371,13 +375,24 @@ def numerical_stack() -> str:
 
 
 def _integrator_attrs(plan):
-    if not plan.integrate:
-        return {"integrator": "not run (no requested output needs the numerical integration)"}
-    # Every option of the "numeric" method, defaults resolved.
+    """The integrator's global attributes: every option of the "numeric" method, defaults
+    resolved, as e_numeric ran it, or else as a composite method integrated its points
+    (its own tol among them: ``auto`` found in every file it served with the integrator
+    "not run", with [integrator]'s steps or refine changing its e unrecorded)."""
     numeric = registry.METHODS["numeric"]
-    return {"integrator": "fixed-step Dormand-Prince 5(4), three phases of Algorithm 1",
+    if plan.integrate:
+        used, what = plan.integrator, ""
+    elif plan.composites:
+        m = plan.composites[0]
+        checked, given = api.given_options(m, plan.options.get(m, {}))
+        used = {k: v for k, v in given.items() if k in {opt.name for opt in numeric.options}}
+        used["tol"] = checked["tol"]
+        what = f", for the points {m} integrates (at its tol)"
+    else:
+        return {"integrator": "not run (no requested output needs the numerical integration)"}
+    return {"integrator": "fixed-step Dormand-Prince 5(4), three phases of Algorithm 1" + what,
             **{numeric.attr_prefix + key: numeric.option(key).to_attr(value)
-               for key, value in api.integrator_settings(**plan.integrator).items()}}
+               for key, value in api.integrator_settings(**used).items()}}
 
 
 def _static_attrs(cfg, design, plan, chunk_size):
@@ -845,7 +860,7 @@ def estimate_rate(cfg: _config.Config | str | Path,
     if not sample:
         return rate_, source, []
     lines = caveat_messages(_applicable(job.plan, sample["counts"]),
-                            count(sample["n"], "sample point"), job.plan.integrator.get("tol"))
+                            count(sample["n"], "sample point"), _tols(job.plan))
     return rate_, source, lines
 
 
@@ -1012,12 +1027,25 @@ def _say_if_writer_bound(job):
 def _applicable(plan, counts):
     """The counts of :data:`sweep.store.CAVEAT_ATTRS` that apply to the configuration."""
     names = [_CAVEATS[0]] if plan.integrate or plan.composites else []
-    if plan.integrate and plan.integrator.get("tol") is not None:
+    if _tols(plan):
         names.append(_CAVEATS[1])
     return {name: int(counts[name]) for name in names}
 
 
-def caveat_messages(counts: dict, n: str, tol: float | None) -> list[str]:
+def _tols(plan):
+    """The tols a point's e may miss, as the configuration names them: the integrator's
+    (where set and it runs) and each composite method's own ("" where none)."""
+    tols = []
+    if plan.integrate and plan.integrator.get("tol") is not None:
+        tols.append(f"integrator.tol = {plan.integrator['tol']:g}")
+    for m in plan.composites:
+        tol = api.given_options(m, plan.options.get(m, {}))[0].get("tol")
+        if tol is not None:
+            tols.append(f"options.{m}.tol = {tol:g}")
+    return " or ".join(tols)
+
+
+def caveat_messages(counts: dict, n: str, tol: str) -> list[str]:
     """One sentence for each count of :data:`sweep.store.CAVEAT_ATTRS` above 0.
 
     Parameters
@@ -1026,8 +1054,8 @@ def caveat_messages(counts: dict, n: str, tol: float | None) -> list[str]:
         The counts, by attribute name (those that apply to the configuration).
     n : str
         The points they are counted in, spelt out ("1,000 points").
-    tol : float or None
-        The integrator's ``tol`` [1, abs error of e].
+    tol : str
+        The tols a point may miss, named (``"integrator.tol = 1e-08"``).
     """
     lines = []
     if counts.get(_CAVEATS[0]):
@@ -1035,9 +1063,9 @@ def caveat_messages(counts: dict, n: str, tol: float | None) -> list[str]:
                      "an upper bound, not a value (status BUDGET_EXHAUSTED; store status in "
                      "outputs.fields to see which, or raise integrator.max_steps)")
     if counts.get(_CAVEATS[1]):
-        lines.append(f"{counts[_CAVEATS[1]]:,} of {n} may miss integrator.tol = {tol:g}: "
-                     "their error estimate e_err is above it (near grazing, or below e's "
-                     "rounding floor, about 1e-13; store e_err in outputs.fields to see which)")
+        lines.append(f"{counts[_CAVEATS[1]]:,} of {n} may miss {tol}: their error "
+                     "estimate e_err is above it (near grazing, or below e's rounding floor, "
+                     "about 1e-13; e_numeric's e_err in outputs.fields says which)")
     return lines
 
 
@@ -1046,7 +1074,7 @@ def _warn_caveats(job):
     :data:`sweep.store.CAVEAT_ATTRS` above 0 (the file records them too; a point's
     ``status`` and ``e_err`` say which only where stored)."""
     for line in caveat_messages(job.result.caveats, count(job.design.size, "point"),
-                                job.plan.integrator.get("tol")):
+                                _tols(job.plan)):
         warnings.warn(line, CaveatWarning, stacklevel=4)
 
 
