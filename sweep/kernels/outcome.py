@@ -49,7 +49,7 @@ import math
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.balance import ROUNDING, defect_share, q_error, swing2
+from sweep.kernels.balance import ROUNDING, defect_share, q_error, rebound_share, swing2
 from sweep.kernels.contact import KIND_EXPONENTS, ppow_called
 from sweep.kernels.march import CREEP, EXIT, NEGLIGIBLE, REST, SPENT, TROUGH
 from sweep.registry import Status
@@ -154,7 +154,7 @@ def _undecided(h, dq):
 
 
 @jit(inline="always")
-def _exit(c, end, h, dq, swing2):
+def _exit(c, end, h, dq, swing2, steps):
     if h < -dq:  # the geometry overshot: the energy was spent before the floor
         return 0.0, _STUCK, 0.0, 0.0, 0.0
     lam = _damping_integral(c.beta, c.kd, c.gamma, end.u_max, end.t)
@@ -164,7 +164,7 @@ def _exit(c, end, h, dq, swing2):
     if e <= 0.0:
         return 0.0, _STUCK, _undecided(h, dq), e_q, e_v
     if balance:
-        err = dq / e
+        err = q_error(c, end.u, end.v, h, end.lq, end.n, steps, rebound_share(h)) / e
     else:
         err = _velocity_error(end, e, lam, swing2, c.gtilde)
     return e, _OK, min(err, _undecided(h, dq) + e), e_q, e_v
@@ -207,7 +207,7 @@ def decide(c, end, steps):
     h = end.h
     dq = q_error(c, end.u, end.v, h, end.lq, end.n, steps, defect_share(h))
     if end.kind == EXIT:
-        return _exit(c, end, h, dq, swing2(c))
+        return _exit(c, end, h, dq, swing2(c), steps)
     if end.kind == TROUGH:
         return _trough(c, end, h, dq)
     undecided = _undecided(h, dq) if h > -dq else 0.0
