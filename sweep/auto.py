@@ -28,7 +28,8 @@ The integrated points get auto's ``tol`` as the integrator's accuracy knob, and 
 (:data:`RETRY_TOL_FACTORS`).
 
 Owns: the error model's file format, the bound at a point and the per-point selection.
-May import: :mod:`sweep.registry` (the methods are called through it) and numpy. Floor 2.
+May import: :mod:`sweep.registry` (the methods are called through it) and numpy; lazily,
+:func:`sweep.store.write_atomic` (floor 1) to save a model. Floor 2.
 """
 from __future__ import annotations
 
@@ -117,11 +118,20 @@ class ErrorModel:
     info: dict
 
     def save(self, path: str | Path) -> None:
-        """Write the model as a compressed ``.npz`` (plain arrays plus JSON ``info``)."""
-        np.savez_compressed(
-            path, format=np.int64(FORMAT), methods=np.array(self.methods), alpha=self.alpha,
-            beta=self.beta, gamma_edges=self.gamma_edges, gtilde_edges=self.gtilde_edges,
-            bound=self.bound, between=self.between, info=np.array(json.dumps(self.info)))
+        """Write the model as a compressed ``.npz`` (plain arrays plus JSON ``info``).
+
+        The file is written at exactly ``path``, whatever its suffix, and complete or not
+        at all (:func:`sweep.store.write_atomic`): by default ``sweep report error-model``
+        replaces the file the package ships, which a half-written file would break.
+        """
+        from sweep import store  # noqa: PLC0415 -- lazily: it imports netCDF4
+
+        arrays = {"format": np.int64(FORMAT), "methods": np.array(self.methods),
+                  "alpha": self.alpha, "beta": self.beta, "gamma_edges": self.gamma_edges,
+                  "gtilde_edges": self.gtilde_edges, "bound": self.bound,
+                  "between": self.between, "info": np.array(json.dumps(self.info))}
+        # Through an open file: given a name, numpy appends ".npz" to one without it.
+        store.write_atomic(Path(path), lambda fh: np.savez_compressed(fh, **arrays))
 
     @classmethod
     def load(cls, path: str | Path = DATA_FILE) -> ErrorModel:

@@ -474,7 +474,7 @@ def _cmd_error_model(args):
         why = em.memory_refusal(points)
         if why is not None:  # refused before the build, not hours into it
             args.usage_error(f"argument {option}: must fit in memory, got {value}: {why}")
-    res = em.error_model_report(args.out or None, sub=args.sub, n_validate=args.n_validate,
+    res = em.error_model_report(args.out, sub=args.sub, n_validate=args.n_validate,
                                 progress=not args.quiet)
     print(res["markdown"])
     return _print_files(res, "files:")

@@ -391,6 +391,50 @@ def test_an_error_model_beyond_memory_is_a_usage_error(monkeypatch, capsys, tmp_
     assert err.count("\n") == 1 and f"argument {option}: must fit in memory, got {value}" in err
 
 
+def _no_build(monkeypatch):
+    """The error model's build (a minute at the least) replaced by the shipped model."""
+    from sweep import auto
+    from sweep.reports import error_model
+
+    monkeypatch.setattr(error_model, "build_error_model",
+                        lambda sub, progress: auto.default_model())
+
+
+def test_error_model_out_is_written_at_exactly_its_path(monkeypatch, capsys, tmp_path):
+    # numpy wrote em.npz for --out em, and the command printed "em".
+    from sweep import auto
+
+    _no_build(monkeypatch)
+    out = tmp_path / "em"
+    assert cli.main(["report", "error-model", "--out", str(out), "--n-validate", "0",
+                     "-q"]) == 0
+    assert sorted(p.name for p in out.parent.iterdir()) == ["em"]
+    assert auto.ErrorModel.load(out).methods == auto.default_model().methods
+    assert capsys.readouterr().out.splitlines()[-2:] == ["files:", f"  {out}"]
+
+
+@pytest.mark.parametrize("where, says", [
+    ("a_dir", "a_dir: is a directory, not a model file"),
+    ("a_file/em.npz", "a_file: is a file, not an output directory"),
+    ("/sys/em.npz", "/sys: cannot create a file in this directory")])
+def test_error_model_out_faults_are_one_line_before_the_build(monkeypatch, capsys, tmp_path,
+                                                              where, says):
+    # Said only after the whole build (minutes), or never: a directory as --out.
+    from sweep.reports import error_model
+
+    def built(**kwargs):
+        raise AssertionError("built before the output was checked")
+
+    monkeypatch.setattr(error_model, "build_error_model", built)
+    (tmp_path / "a_dir").mkdir()
+    (tmp_path / "a_file").write_text("keep")
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["report", "error-model", "--out", where, "--sub", "1", "-q"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and says in err and "unexpected" not in err
+    assert (tmp_path / "a_file").read_text() == "keep"
+
+
 @pytest.mark.parametrize("command", ["run", "validate"])
 @pytest.mark.parametrize("size", ["inf", "1e400", "nan", "0.5"])
 def test_a_size_out_of_range_is_a_usage_error(cfg, capsys, command, size):

@@ -3,7 +3,8 @@
 Owns :func:`use_agg` (matplotlib with the Agg backend, imported on demand so that importing
 a report stays fast), :func:`machine_description` / :func:`machine_line` (where numbers were
 measured), :func:`format_value` and :func:`write_table` (CSV at full precision, markdown at a
-few digits) and :func:`log_progress`.
+few digits), :func:`log_progress` and :func:`make_out_dir` (an output directory, checked
+writable before a report computes).
 
 Floor 5 (the reports' ground): may import numpy, scipy, numba, matplotlib (lazily) and the
 package's public api (:func:`sweep.integrate`, lazily, to learn numba's threading layer)
@@ -18,6 +19,7 @@ import math
 import os
 import platform
 import sys
+import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -42,6 +44,9 @@ def make_out_dir(out: str | os.PathLike, dataset: str | os.PathLike | None = Non
         which the command line then called unreadable).
     NotADirectoryError
         ``out`` is an existing file: one line saying so, not mkdir's "File exists".
+    OSError
+        No file can be created in ``out`` (named): said before the report computes, not
+        when it writes, after the whole computation.
     """
     from sweep import store  # noqa: PLC0415 -- lazily: importing a report stays fast
 
@@ -52,7 +57,22 @@ def make_out_dir(out: str | os.PathLike, dataset: str | os.PathLike | None = Non
         raise NotADirectoryError(errno.ENOTDIR, "is a file, not an output directory",
                                  os.fspath(out))
     out.mkdir(parents=True, exist_ok=True)
+    _check_writable(out)
     return out
+
+
+def _check_writable(directory: Path) -> None:
+    """Raise OSError naming ``directory`` where no file can be created in it.
+
+    A file is created and removed: os.access says yes to root in a read-only place (a
+    read-only mount, /sys), and the error of the probe names its random file name.
+    """
+    try:
+        with tempfile.TemporaryFile(dir=directory):
+            pass
+    except OSError as exc:
+        raise OSError(exc.errno, f"cannot create a file in this directory ({exc.strerror})",
+                      os.fspath(directory)) from exc
 
 
 def use_agg() -> Any:

@@ -36,6 +36,8 @@ scipy.
 from __future__ import annotations
 
 import datetime as _dt
+import errno
+import os
 import time
 from pathlib import Path
 from typing import Any
@@ -47,7 +49,7 @@ from sweep._format import format_bytes
 from sweep._version import __version__
 from sweep.registry import Status
 from sweep.reports.common import (format_value, log_progress, machine_description,
-                                  machine_line, write_table)
+                                  machine_line, make_out_dir, write_table)
 from sweep.sweeps.preflight import physical_memory
 
 __all__ = ["build_error_model", "validate_error_model", "error_model_report", "random_points",
@@ -298,7 +300,8 @@ def error_model_report(out: str | Path | None = None, sub: int = 2, n_validate: 
     Parameters
     ----------
     out : path-like, optional
-        The model file (default :data:`sweep.auto.DATA_FILE`, the one the package ships).
+        The model file, written at exactly this path whatever its suffix (default
+        :data:`sweep.auto.DATA_FILE`, the one the package ships); its directory is created.
     sub : int
         Samples per cell edge (:func:`build_error_model`).
     n_validate : int
@@ -316,9 +319,14 @@ def error_model_report(out: str | Path | None = None, sub: int = 2, n_validate: 
     ValueError
         If ``sub`` or ``n_validate`` asks for more points than this machine's memory holds;
         before anything is computed or written.
+    OSError
+        ``out`` (named) is a directory, or no file can be created in its directory; before
+        anything is computed.
     """
-    out = Path(out) if out is not None else auto.DATA_FILE
-    _refuse_beyond_memory(n_validate, f"n_validate={n_validate}")  # before the build
+    # Before the build, and the build's own check before the directory is made.
+    _refuse_beyond_memory(n_validate, f"n_validate={n_validate}")
+    _refuse_beyond_memory(judged_points(sub), f"sub={sub}")
+    out = _model_path(out)
     model = build_error_model(sub=sub, progress=progress)
     model.save(out)
     auto.default_model.cache_clear()  # the next "auto" call reads the file just written
@@ -340,6 +348,17 @@ def error_model_report(out: str | Path | None = None, sub: int = 2, n_validate: 
         files += [csv_path, md_path]
     return {"model": model, "validation": rows, "files": [str(f) for f in files],
             "markdown": markdown}
+
+
+def _model_path(out: str | os.PathLike | None) -> Path:
+    """``out`` as a Path (None: the shipped file), its directory made and checked writable:
+    a fault of the path was said only after the whole build (minutes to hours)."""
+    out = auto.DATA_FILE if out is None else Path(out)
+    if out.is_dir() or out.name in ("", ".", ".."):
+        raise IsADirectoryError(errno.EISDIR, "is a directory, not a model file (give a "
+                                "file name such as error_model.npz)", os.fspath(out))
+    make_out_dir(out.parent)
+    return out
 
 
 def summary_line(model: auto.ErrorModel) -> str:

@@ -35,7 +35,8 @@ Modules, one job each:
     (``sweep.run`` without ``out=``).
 :mod:`~sweep.store.partial`
     :class:`PartialStore` (manifest, verified chunk files), :class:`OutputLock`,
-    :class:`ResumeError`, :class:`LockError`.
+    :class:`ResumeError`, :class:`LockError`, :func:`write_atomic` (a file complete or
+    not at all, also for the reports).
 :mod:`~sweep.store.summary`
     :func:`summarize` (``sweep info``), :func:`read_global_attrs`, :func:`check_readable`,
     :func:`open_dataset` (every reader of a dataset the user names).
@@ -57,7 +58,7 @@ from sweep.store.netcdf import (CHUNK_CACHE_BYTES, COMPLEVEL, STORAGE_CHUNK, SUF
                                 NetCDFWriter, commit, same_file)
 from sweep.store.partial import (CHUNK_FORMAT, MANIFEST_FORMAT, LockError, OutputLock,
                                  PartialStore, ResumeError, lock_path, partial_bytes,
-                                 partial_dir, remove_untrusted)
+                                 partial_dir, remove_untrusted, write_atomic)
 from sweep.store.summary import check_readable, open_dataset, read_global_attrs, summarize
 
 __all__ = [
@@ -67,5 +68,5 @@ __all__ = [
     "COMPLEVEL", "SUFFIXES", "CHUNK_FORMAT", "LockError", "OutputLock", "lock_path",
     "partial_bytes", "remove_untrusted", "CONVENTIONS", "SPACINGS", "index_dtype",
     "law_units_attrs", "MATERIAL_NAME", "check_readable", "open_dataset", "CAVEAT_ATTRS",
-    "same_file",
+    "same_file", "write_atomic",
 ]

@@ -37,7 +37,7 @@ import os
 import shutil
 import socket
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -50,7 +50,7 @@ except ImportError:  # pragma: no cover - Windows: no locking
 
 __all__ = ["PartialStore", "ResumeError", "LockError", "OutputLock", "partial_dir",
            "lock_path", "remove_untrusted", "partial_bytes", "MANIFEST_FORMAT",
-           "CHUNK_FORMAT"]
+           "CHUNK_FORMAT", "write_atomic"]
 
 #: Format of the manifest; version 2 introduced self-describing, checksummed chunk files.
 MANIFEST_FORMAT = "sweep-partial/2"
@@ -97,7 +97,20 @@ def _short(value):
     return s if len(s) <= 120 else s[:117] + "..."
 
 
-def _write_atomic(path, data_or_writer):
+def write_atomic(path: Path, data_or_writer: bytes | Callable[[Any], None]) -> None:
+    """Write a file at exactly ``path``, complete or not at all.
+
+    The bytes go to a temporary name beside it, are fsync'ed and renamed onto ``path``, so
+    a crash or a full disk leaves the previous file (or none), never a half-written one.
+
+    Parameters
+    ----------
+    path : Path
+        The file written (replaced if it exists).
+    data_or_writer : bytes or callable
+        The file's bytes, or ``writer(fh)`` writing them into the open binary file ``fh``
+        (``np.savez(fh, ...)``: through a file, numpy adds no ``.npz`` to the name).
+    """
     tmp = path.with_name(path.name + f".tmp{os.getpid()}")
     try:
         with open(tmp, "wb") as fh:
@@ -414,8 +427,8 @@ class PartialStore:
         if old is not None:
             self._check_manifest(old)
         else:
-            _write_atomic(self.dir / "manifest.json",
-                          json.dumps(self.manifest, indent=1).encode())
+            write_atomic(self.dir / "manifest.json",
+                         json.dumps(self.manifest, indent=1).encode())
         # Leftovers of a crashed run: a half-assembled netCDF file and temporary chunks.
         for p in self.dir.glob("*.tmp*"):
             p.unlink()
@@ -480,7 +493,7 @@ class PartialStore:
                 "tally": [float(t) for t in tally], "points_sha256": _digest(points or {}),
                 "sha256": _digest(payload)}
         payload["__meta__"] = np.array(json.dumps(meta))
-        _write_atomic(self._chunk_path(index), lambda fh: np.savez(fh, **payload))
+        write_atomic(self._chunk_path(index), lambda fh: np.savez(fh, **payload))
 
     def load_chunk(self, index: int, start: int, stop: int,
                    points: Mapping[str, Any] | None = None
