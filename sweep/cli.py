@@ -143,6 +143,20 @@ def _resolution(also_half=False):
     return convert
 
 
+def _paper_steps(text):
+    """An argparse ``type=``: ``steps`` of ``report paper``: a resolution the integrator
+    accepts (:func:`_resolution`) whose step budget the report can raise with it
+    (:func:`sweep.reports.paper.step_budget`; beyond, every point ran out of budget)."""
+    from sweep.reports import paper
+
+    value = _resolution()(text)
+    try:
+        paper.step_budget(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be {paper.STEPS_RULE}, got {text!r}") from None
+    return value
+
+
 _SIZE_UNITS = {"": 1, "k": 10 ** 3, "m": 10 ** 6, "g": 10 ** 9, "t": 10 ** 12, "p": 10 ** 15}
 
 
@@ -368,10 +382,14 @@ def _cmd_accuracy(args):
 
 
 def _cmd_paper(args):
-    from sweep.reports.paper import paper_report
+    from sweep.reports.paper import UndecidedError, paper_report
 
-    res = paper_report(args.out, n_gamma=args.n_gamma, n_crit=args.n_crit, steps=args.steps,
-                       models=args.models, progress=not args.quiet)
+    try:
+        res = paper_report(args.out, n_gamma=args.n_gamma, n_crit=args.n_crit,
+                           steps=args.steps, models=args.models, progress=not args.quiet)
+    except UndecidedError as exc:   # the settings' fault, not the package's: no traceback
+        _say(f"{_command_name(args)}: error: {exc}")
+        return 1
     print(res["markdown"])
     _print_files(res, f"files in {res['out']}:")
     print(res["summary"])  # last, where a reader of the terminal looks first
@@ -418,8 +436,9 @@ def _add_paper_command(sub, models):
                    help="gamma grid points per (model, g~) (default 1000, as the report)")
     p.add_argument("--n-crit", type=_points(), default=100, metavar="N",
                    help="gamma values of Figures 8-11 (default 100, as the report)")
-    p.add_argument("--steps", type=_resolution(), default=None,
-                   help="integrator resolution (default: the package default)")
+    p.add_argument("--steps", type=_paper_steps, default=None,
+                   help="integrator resolution (default: the package default); the step "
+                        "budget per point grows with it")
     p.add_argument("--models", nargs="+", choices=models, default=None,
                    help="subset of models (default: all four)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages")

@@ -435,6 +435,23 @@ def test_error_model_out_faults_are_one_line_before_the_build(monkeypatch, capsy
     assert (tmp_path / "a_file").read_text() == "keep"
 
 
+def test_paper_steps_beyond_the_reports_budget_are_a_usage_error(monkeypatch, capsys):
+    # 2**30 passed the integrator's check, but the report's budget stayed 200,000: every
+    # point ran out of it and wrong tables were written.
+    from sweep.reports import paper
+
+    def ran(*args, **kwargs):
+        raise AssertionError("the report ran")
+
+    monkeypatch.setattr(paper, "paper_report", ran)
+    with pytest.raises(SystemExit) as info:
+        cli.main(["report", "paper", "--steps", "1e9"])
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and err.count("\n") == 1
+    assert "argument --steps: must be <= 515,396 (the report's step budget" in err
+    assert "1,073,741,824" in err and "got '1e9'" in err
+
+
 @pytest.mark.parametrize("command", ["run", "validate"])
 @pytest.mark.parametrize("size", ["inf", "1e400", "nan", "0.5"])
 def test_a_size_out_of_range_is_a_usage_error(cfg, capsys, command, size):

@@ -11,6 +11,7 @@ import csv
 import math
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -389,6 +390,83 @@ def test_paper_report_files(tmp_path):
     for curve, top in (("main", 1.0), ("inset", 0.01)):
         g = [float(r["gamma"]) for r in table if r["curve"] == curve]
         assert len(g) == 6 and g == sorted(g) and abs(g[-1] - top) < 1e-12, curve
+
+
+def test_paper_step_budget_grows_with_steps():
+    # --steps 300000 kept the budget at 200,000: every point ran out of it (e = 1, a bound)
+    # and the tables were computed from those bounds.
+    from sweep.reports import paper
+
+    sweeps = compute_sweeps(["kk"], n_gamma=2, steps=300000)
+    assert all(np.isin(d["status"], (sweep.Status.OK, sweep.Status.STUCK)).all()
+               for d in sweeps.values())
+    assert paper.step_budget(None) == paper.step_budget(96) == sweep.DEFAULT_MAX_STEPS
+    assert paper.step_budget(300000) >= 5 * 300000          # marches took up to ~4.6 steps
+    assert paper.step_budget(paper.MAX_STEPS) <= sweep.registry.MAX_STEP_BUDGET
+    with pytest.raises(ValueError, match="steps must be <= 515,396"):
+        paper.step_budget(paper.MAX_STEPS + 1)
+
+
+def _paper_argv(out):
+    return ["report", "paper", "--out", str(out), "--n-gamma", "5", "--n-crit", "2",
+            "--models", "kk", "--steps", "16", "-q"]
+
+
+def test_paper_points_out_of_budget_stop_the_report_before_it_writes(monkeypatch, capsys,
+                                                                     tmp_path):
+    # Before: the tables were written from budget-exhausted points, then raw RuntimeWarnings
+    # and "unexpected ValueError: Axis limits cannot be NaN or Inf".
+    from sweep.reports import paper
+
+    monkeypatch.setattr(paper, "step_budget", lambda steps: 10, raising=False)
+    out = tmp_path / "p"
+    out.mkdir()
+    (out / "paper_tables.csv").write_text("a previous run's")
+    assert cli.main(_paper_argv(out)) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("sweep report paper: error: ")
+    # 36: gamma = 0 is decided without a march (e = 1), on the unshifted grid only
+    assert "36 of 40 points of Tables 2-5 ran out of the step budget (10 steps" in err
+    assert "no file was written" in err and "unexpected" not in err
+    assert sorted(p.name for p in out.iterdir()) == ["paper_tables.csv"]
+    assert (out / "paper_tables.csv").read_text() == "a previous run's"
+
+
+def test_paper_g_c_out_of_budget_stops_the_report(monkeypatch, tmp_path):
+    from sweep.reports import paper
+
+    real = paper.critical_curves
+
+    def one_undecided(*args, **kwargs):
+        crit = real(*args, **kwargs)
+        crit["kk"]["numeric_zoom"][0] = np.nan   # what critical_gtilde gives there
+        return crit
+
+    monkeypatch.setattr(paper, "critical_curves", one_undecided)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")          # no RuntimeWarning of an all-NaN slice
+        with pytest.raises(getattr(paper, "UndecidedError", ()),
+                           match="1 of 4 g~_c values of Figures 8-11 ran out"):
+            paper_report(tmp_path / "p", n_gamma=5, n_crit=2, models=["kk"], steps=16)
+    assert list((tmp_path / "p").iterdir()) == []
+
+
+def test_paper_report_failing_while_writing_leaves_no_new_file(monkeypatch, tmp_path):
+    # The tables and the g~_c CSV were written before the figures: a figure that failed
+    # left them beside the previous run's paper_report.md.
+    from sweep.reports import paper
+
+    def fails(*args):
+        raise RuntimeError("cannot draw")
+
+    monkeypatch.setattr(paper, "_error_figure", fails)
+    out = tmp_path / "p"
+    out.mkdir()
+    (out / "paper_report.md").write_text("a previous run's")
+    with pytest.raises(RuntimeError, match="cannot draw"):
+        paper_report(out, n_gamma=5, n_crit=2, models=["kk"], steps=16)
+    assert sorted(p.name for p in out.iterdir()) == ["paper_report.md"]
+    assert (out / "paper_report.md").read_text() == "a previous run's"
 
 
 def test_paper_reproduction_summary_counts_and_explains(monkeypatch, capsys):

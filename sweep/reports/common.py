@@ -3,16 +3,18 @@
 Owns :func:`use_agg` (matplotlib with the Agg backend, imported on demand so that importing
 a report stays fast), :func:`machine_description` / :func:`machine_line` (where numbers were
 measured), :func:`format_value` and :func:`write_table` (CSV at full precision, markdown at a
-few digits), :func:`log_progress` and :func:`make_out_dir` (an output directory, checked
-writable before a report computes).
+few digits), :func:`log_progress`, :func:`make_out_dir` (an output directory, checked
+writable before a report computes) and :func:`staged` (a report's files published together).
 
 Floor 5 (the reports' ground): may import numpy, scipy, numba, matplotlib (lazily) and the
 package's public api (:func:`sweep.integrate`, lazily, to learn numba's threading layer)
-and :mod:`sweep.store` (:func:`sweep.store.same_file`, lazily);
+and :mod:`sweep.store` (:func:`sweep.store.same_file` and :func:`sweep.store.commit`,
+lazily);
 never another report module, the runner's command line or argparse.
 """
 from __future__ import annotations
 
+import contextlib
 import csv
 import errno
 import math
@@ -20,12 +22,12 @@ import os
 import platform
 import sys
 import tempfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 __all__ = ["use_agg", "machine_description", "machine_line", "format_value", "write_table",
-           "log_progress", "make_out_dir"]
+           "log_progress", "make_out_dir", "staged"]
 
 
 def log_progress(progress: bool, msg: str) -> None:
@@ -73,6 +75,46 @@ def _check_writable(directory: Path) -> None:
     except OSError as exc:
         raise OSError(exc.errno, f"cannot create a file in this directory ({exc.strerror})",
                       os.fspath(directory)) from exc
+
+
+@contextlib.contextmanager
+def staged(out: Path) -> Iterator[Callable[[str], Path]]:
+    """Write a report's files under temporary names in ``out``, then publish them together.
+
+    A report that fails part-way (Ctrl-C, a full disk, a figure that cannot be drawn) must
+    leave no new file: neither a half-written one nor complete ones beside the previous
+    run's files that they would contradict.
+
+    Parameters
+    ----------
+    out : Path
+        The report's directory (:func:`make_out_dir`).
+
+    Yields
+    ------
+    callable
+        ``stage(name) -> Path``: where to write the file ``out / name`` for now (its suffix
+        kept: numpy and matplotlib choose the format by it). When the block ends, every
+        staged file is renamed onto its name (:func:`sweep.store.commit`); when it raises,
+        they are all removed.
+    """
+    from sweep import store  # noqa: PLC0415 -- lazily: importing a report stays fast
+
+    names: dict[Path, Path] = {}
+
+    def stage(name: str) -> Path:
+        final = out / name
+        names[final] = final.with_name(f"{final.stem}.tmp{os.getpid()}{final.suffix}")
+        return names[final]
+
+    try:
+        yield stage
+        for final, tmp in names.items():
+            store.commit(tmp, final)
+    finally:
+        for tmp in names.values():   # a committed one is gone; the others were not published
+            with contextlib.suppress(OSError):
+                tmp.unlink()
 
 
 def use_agg() -> Any:

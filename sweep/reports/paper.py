@@ -26,12 +26,21 @@ g~_c against gamma: the smallest g~ at which the bead no longer rebounds, by bis
 numerical outcome (:func:`sweep.critical.critical_gtilde`, method "numeric"), against the
 report's (24); and the relative error ``|g~_c,num - g~_c,(24)| / g~_c,num`` for gamma <= 0.3.
 
-May import: numpy, :mod:`sweep.critical`, the public ``sweep`` names,
-:mod:`sweep.reports.common` and :mod:`sweep.reports.paper_values`; matplotlib lazily,
+Step budget
+-----------
+``steps`` asks for a finer march, which takes proportionally more steps (2 to 5 times
+``steps`` on the report's grids), so the step budget per point grows with it: the package
+default's per unit of resolution (:func:`step_budget`). A point that still runs out of it
+(or a g~_c whose bisection met one) has a bound, not a value: the report then stops with
+:class:`UndecidedError` before it writes anything.
+
+May import: numpy, :mod:`sweep.critical`, :mod:`sweep.registry`, the public ``sweep``
+names, :mod:`sweep.reports.common` and :mod:`sweep.reports.paper_values`; matplotlib lazily,
 after :func:`sweep.reports.common.use_agg` has set its backend.
 """
 from __future__ import annotations
 
+import math
 import os
 import time
 from collections.abc import Mapping, Sequence
@@ -42,20 +51,62 @@ from numpy.typing import ArrayLike
 
 import sweep
 from sweep.critical import RTOL
+from sweep.registry import MAX_STEP_BUDGET, Status
 from sweep.reports.common import (format_value, log_progress, machine_description,
-                                  machine_line, make_out_dir, use_agg, write_table)
+                                  machine_line, make_out_dir, staged, use_agg, write_table)
 from sweep.reports.paper_values import (FIGURES_CRITICAL, GAMMA_MAX, GRID_END_FACTOR,
                                         GTILDES, PAPER_MODELS, TABLE_A, TABLE_B,
                                         TABLE_B_EDGES, TRANSCRIPTION_NOTES, WINDOW_FRACTIONS)
 
 __all__ = ["paper_report", "gamma_c_24", "paper_gamma_grid", "window_masks", "WINDOWS",
            "compute_sweeps", "table_rows", "critical_curves", "reproduction",
-           "COEFFICIENTS", "REPRODUCED_RTOL"]
+           "COEFFICIENTS", "REPRODUCED_RTOL", "step_budget", "MAX_STEPS", "STEPS_RULE",
+           "UndecidedError"]
 
 #: Column name -> sweep method: the report's two kinds of I, Q.
 COEFFICIENTS = {"numint": "ord2_numint", "approx": "ord2_approx"}
 #: Windows in the tables: the report's three, and "ge" = mid or high (its "gamma >= 0.02").
 WINDOWS = ("low", "mid", "high", "ge")
+
+
+#: The largest ``steps``: its budget (:func:`step_budget`) is the integrator's largest.
+MAX_STEPS = math.floor(MAX_STEP_BUDGET * sweep.DEFAULT_STEPS / sweep.DEFAULT_MAX_STEPS)
+#: What ``steps`` must be, for the messages that refuse it.
+STEPS_RULE = (f"<= {MAX_STEPS:,} (the report's step budget per point grows with steps, "
+              f"{sweep.DEFAULT_MAX_STEPS:,} per {sweep.DEFAULT_STEPS:g}, and cannot pass "
+              f"2**30 = {MAX_STEP_BUDGET:,})")
+
+
+class UndecidedError(RuntimeError):
+    """Points the integrator did not decide within the step budget: their e is a bound, not
+    a value, so the report stops before it writes tables or figures from them."""
+
+
+def step_budget(steps: float | None) -> int:
+    """The step budget per point (``max_steps``) of the report's marches at ``steps``.
+
+    Parameters
+    ----------
+    steps : float or None
+        The resolution (None: the package default).
+
+    Returns
+    -------
+    int
+        The package default's budget, or more for a finer resolution: as much per unit of
+        resolution as the default has (a fixed budget ran out from about 40,000 steps on,
+        and every point of the tables was a bound).
+
+    Raises
+    ------
+    ValueError
+        ``steps`` above :data:`MAX_STEPS` (no budget would be large enough).
+    """
+    if steps is None or steps <= sweep.DEFAULT_STEPS:
+        return sweep.DEFAULT_MAX_STEPS
+    if not steps <= MAX_STEPS:
+        raise ValueError(f"steps must be {STEPS_RULE}, got {steps!r}")
+    return math.ceil(sweep.DEFAULT_MAX_STEPS * steps / sweep.DEFAULT_STEPS)
 
 
 def gamma_c_24(alpha: float, beta: float, gtilde: ArrayLike) -> np.ndarray:
@@ -98,6 +149,8 @@ def compute_sweeps(models: Sequence[str] | None = None, n_gamma: int = 1000,
                    progress: bool = False) -> dict[tuple[str, float], dict[str, Any]]:
     """The numerical CoR and both O(gamma^2) approximations on the report's grids.
 
+    The numerical CoR is marched with the step budget :func:`step_budget` of ``steps``.
+
     Returns
     -------
     dict
@@ -111,7 +164,7 @@ def compute_sweeps(models: Sequence[str] | None = None, n_gamma: int = 1000,
         for G in GTILDES:
             gamma, end = paper_gamma_grid(a, b, G, n_gamma, shift=shift)
             t0 = time.perf_counter()
-            r = sweep.integrate(a, b, gamma, G, steps=steps)
+            r = sweep.integrate(a, b, gamma, G, steps=steps, max_steps=step_budget(steps))
             d = {"gamma": gamma, "end": end, "numeric": r.e, "status": r.status}
             for c, m in COEFFICIENTS.items():
                 d[c] = sweep.cor(a, b, gamma, G, method=m)
@@ -292,13 +345,13 @@ def critical_curves(models: Sequence[str] | None = None, n_crit: int = 100,
 
     The numerical g~_c is :func:`sweep.critical.critical_gtilde` with method "numeric":
     bisection on the integrator's stick decision, all gamma values at once, to relative
-    precision :data:`sweep.critical.RTOL`.
+    precision :data:`sweep.critical.RTOL`, with the step budget :func:`step_budget`.
 
     Returns ``model -> {"gamma", "numeric", "approx", "relerr", "gamma_zoom", ...}``.
     """
     from sweep.critical import critical_gtilde
 
-    options = {} if steps is None else {"steps": steps}
+    options = {} if steps is None else {"steps": steps, "max_steps": step_budget(steps)}
 
     f = FIGURES_CRITICAL
     models = list(models or PAPER_MODELS)
@@ -386,16 +439,16 @@ def _error_figure(path, key, sweeps):
     plt.close(fig)
 
 
-def _table_files(out, rows, sweeps):
-    """Write the recomputed tables (CSV) and the raw sweeps (npz); return their paths."""
+def _table_files(stage, rows, sweeps):
+    """Write the recomputed tables (CSV) and the raw sweeps (npz); return their names."""
     cols = ["table", "part", "model", "alpha", "beta", "gtilde", "coefficients", "window",
             "gamma_range", "n_points", "max_abs_error", "report", "ratio", "max_shifted",
             "gamma_at_max", "e_numeric_at_max"]
-    write_table(rows, cols, out / "paper_tables.csv")
-    np.savez_compressed(out / "paper_sweeps.npz", **{
+    write_table(rows, cols, stage("paper_tables.csv"))
+    np.savez_compressed(stage("paper_sweeps.npz"), **{
         f"{k}_g{G:g}_{v}": d[v] for (k, G), d in sweeps.items()
         for v in ("gamma", "numeric", "numint", "approx", "status")})
-    return [out / "paper_tables.csv", out / "paper_sweeps.npz"]
+    return ["paper_tables.csv", "paper_sweeps.npz"]
 
 
 def _critical_rows(crit):
@@ -414,7 +467,7 @@ def _critical_rows(crit):
     return crit_rows
 
 
-def _critical_table(out, crit, crit_rows, n_crit):
+def _critical_table(stage, crit, crit_rows, n_crit):
     """Write the g~_c curves (CSV); return the markdown summary of Figures 8-11."""
     # Two curves a model (the figure's main axes and its gamma <= 0.01 inset), which share
     # gamma values: the column says which.
@@ -425,7 +478,7 @@ def _critical_table(out, crit, crit_rows, n_crit):
                  for g, n, a, r in zip(d[f"gamma{tag}"], d[f"numeric{tag}"],
                                        d[f"approx{tag}"], d[f"relerr{tag}"])],
                 ["model", "curve", "gamma", "gtilde_c_numeric", "gtilde_c_24", "rel_error"],
-                out / "paper_critical.csv")
+                stage("paper_critical.csv"))
     return write_table(
         crit_rows, ["figure", "model", "gamma_range", "n_gamma", "min_rel_error",
                     "max_rel_error"],
@@ -438,15 +491,15 @@ def _critical_table(out, crit, crit_rows, n_crit):
                "as 0, absolute width 1e-3)."])
 
 
-def _figure_files(out, models, crit, sweeps):
-    """Draw Figures 8-11 and the error-against-gamma figures; return their paths."""
+def _figure_files(stage, models, crit, sweeps):
+    """Draw Figures 8-11 and the error-against-gamma figures; return their names."""
     files = []
     for key in models:
-        f = out / f"paper_{PAPER_MODELS[key][4].replace(' ', '').lower()}_{key}.png"
-        _critical_figure(f, key, crit[key])
+        f = f"paper_{PAPER_MODELS[key][4].replace(' ', '').lower()}_{key}.png"
+        _critical_figure(stage(f), key, crit[key])
         files.append(f)
-        f = out / f"paper_errors_{key}.png"
-        _error_figure(f, key, sweeps)
+        f = f"paper_errors_{key}.png"
+        _error_figure(stage(f), key, sweeps)
         files.append(f)
     return files
 
@@ -458,7 +511,8 @@ def _report_markdown(rows, crit_md, n_gamma, steps, machine, elapsed):
         "## The report's Tables 2-5 recomputed",
         "",
         "Maximum absolute error of the O(gamma^2) approximation (36)-(38) against sweep's "
-        f"numerical CoR (steps = {steps or sweep.DEFAULT_STEPS:g}), with I, Q by quadrature "
+        f"numerical CoR (steps = {steps or sweep.DEFAULT_STEPS:g}, a budget of "
+        f"{step_budget(steps):,} steps per point), with I, Q by quadrature "
         "('num.'; exact (39), (40) at g~ = 0) and by the Chebyshev-Beta approximation "
         "(48), (49), n = 21 ('approx.'). Grid: "
         f"{n_gamma} gamma values on [0, min(0.1, 1.1 gamma_c(24))] per (model, g~), the "
@@ -505,33 +559,64 @@ def paper_report(out: str | os.PathLike = "paper_report", n_gamma: int = 1000, *
     Raises
     ------
     ValueError
-        If ``n_gamma < 2`` (before anything is written).
+        If ``n_gamma < 2`` or ``steps`` is above :data:`MAX_STEPS` (before anything is
+        written).
     NotADirectoryError
         ``out`` is an existing file.
+    OSError
+        No file can be created in ``out`` (before anything is computed).
+    UndecidedError
+        Points ran out of the step budget (:func:`step_budget`); no file is written.
     """
     models = list(models or PAPER_MODELS)
     n_crit = FIGURES_CRITICAL["n_gamma"] if n_crit is None else int(n_crit)
     if n_gamma < 2:
         raise ValueError(f"n_gamma must be >= 2, got {n_gamma}")
+    step_budget(steps)
     out = make_out_dir(out)   # after the checks: a refused call leaves no directory
     machine = machine_description()
     t0 = time.perf_counter()
+    sweeps, shifted, crit = _compute(models, n_gamma, n_crit, steps, progress)
+    rows, crit_rows = table_rows(sweeps, shifted), _critical_rows(crit)
+    # Staged: a failure while writing leaves no new file beside the previous run's.
+    with staged(out) as stage:
+        files = _table_files(stage, rows, sweeps)
+        crit_md = _critical_table(stage, crit, crit_rows, n_crit)
+        files.append("paper_critical.csv")
+        if figures:
+            files += _figure_files(stage, models, crit, sweeps)
+        md = _report_markdown(rows, crit_md, n_gamma, steps, machine,
+                              time.perf_counter() - t0)
+        stage("paper_report.md").write_text(md, encoding="utf-8")
+    return {"out": out, "files": [out / f for f in ["paper_report.md", *files]], "rows": rows,
+            "critical": crit, "crit_rows": crit_rows, "markdown": md, "sweeps": sweeps,
+            "summary": reproduction(rows)["summary"]}
+
+
+def _compute(models, n_gamma, n_crit, steps, progress):
+    """The sweeps of Tables 2-5 (both grids) and the g~_c curves of Figures 8-11, each
+    refused (:class:`UndecidedError`) as soon as a point of it ran out of the budget."""
     log_progress(progress, "Tables 2-5: the report's gamma grids")
     sweeps = compute_sweeps(models, n_gamma, steps, progress=progress)
     log_progress(progress, "Tables 2-5: the same grids shifted by half a step")
     shifted = compute_sweeps(models, n_gamma, steps, shift=True, progress=progress)
-    rows = table_rows(sweeps, shifted)
-    files = _table_files(out, rows, sweeps)
+    status = np.concatenate([d["status"] for s in (sweeps, shifted) for d in s.values()])
+    decided = (Status.OK, Status.STUCK, Status.AT_REST)
+    _refuse_undecided(int((~np.isin(status, decided)).sum()), status.size,
+                      "points of Tables 2-5", steps)
     log_progress(progress, "Figures 8-11: g~_c by bisection")
     crit = critical_curves(models, n_crit, steps, progress=progress)
-    crit_rows = _critical_rows(crit)
-    crit_md = _critical_table(out, crit, crit_rows, n_crit)
-    files.append(out / "paper_critical.csv")
-    if figures:
-        files += _figure_files(out, models, crit, sweeps)
-    md = _report_markdown(rows, crit_md, n_gamma, steps, machine, time.perf_counter() - t0)
-    (out / "paper_report.md").write_text(md, encoding="utf-8")
-    files.insert(0, out / "paper_report.md")
-    return {"out": out, "files": files, "rows": rows, "critical": crit,
-            "crit_rows": crit_rows, "markdown": md, "sweeps": sweeps,
-            "summary": reproduction(rows)["summary"]}
+    # NaN: the bisection met a point the integrator did not decide.
+    g_c = np.concatenate([d[k] for d in crit.values() for k in ("numeric", "numeric_zoom")])
+    _refuse_undecided(int(np.isnan(g_c).sum()), g_c.size, "g~_c values of Figures 8-11",
+                      steps)
+    return sweeps, shifted, crit
+
+
+def _refuse_undecided(n, total, what, steps):
+    """Raise :class:`UndecidedError` if ``n`` of the ``total`` ``what`` are undecided."""
+    if n:
+        raise UndecidedError(
+            f"{n:,} of {total:,} {what} ran out of the step budget ({step_budget(steps):,} "
+            f"steps per point at steps = {steps or sweep.DEFAULT_STEPS:g}): their e would be "
+            "a bound, not a value, so no file was written")
