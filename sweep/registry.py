@@ -129,10 +129,15 @@ class Parameter:
     law_units: tuple = ()
 
     def ok(self, value: Any) -> Any:
-        """Elementwise: inside the domain (finite and between the bounds)."""
-        x = np.asarray(value, dtype=np.float64)
+        """Elementwise: inside the domain (finite and between the bounds); a bool for a
+        Python float (a scalar call checks four: numpy's reductions took ~7 us each)."""
+        if isinstance(value, float):
+            x, finite = value, math.isfinite(value)
+        else:
+            x = np.asarray(value, dtype=np.float64)
+            finite = np.isfinite(x)
         above = x > self.minimum if self.strict else x >= self.minimum
-        return np.isfinite(x) & above & (x <= self.maximum)
+        return finite & above & (x <= self.maximum)
 
     def cf_units(self, alpha: float = 1.0, beta: float = 1.0) -> str | None:
         """The units as a UDUNITS string, under the contact law (alpha, beta).
@@ -334,8 +339,11 @@ def check_array(name: str, value: Any, domain: Mapping[str, Parameter] | None = 
 
 
 def check_scalar(name: str, value: float) -> None:
-    """Raise ``ValueError`` naming ``value`` if it lies outside the domain of ``name``."""
-    check_array(name, value)
+    """Raise ``ValueError`` naming ``value`` if it lies outside the domain of ``name`` (the
+    message of :func:`check_array`)."""
+    parameter = {**PARAMETERS, **PHYSICAL}[name]
+    if not parameter.ok(float(value)):
+        raise ValueError(_message(name, parameter, np.float64(value)))
 
 
 # --------------------------------------------------------------------------- methods
