@@ -247,7 +247,8 @@ def _add_info_and_validate_commands(sub):
     p = sub.add_parser("validate", help="check a configuration without running it",
                        description="Check CONFIG and print what running it costs: points, "
                                    "chunks, output size, free disk needed, estimated time. "
-                                   "Exit status 1 if `sweep run` would refuse it.")
+                                   "Exit status 1, with the reason and no estimate, if "
+                                   "`sweep run` would refuse it.")
     p.add_argument("config", metavar="CONFIG", help="TOML configuration file")
     p.add_argument("-o", "--output", metavar="OUT.nc",
                    help="the output `sweep run` would write (default: CONFIG's name with .nc)")
@@ -274,17 +275,20 @@ def _cmd_validate(args):
           + (f"; per-point choice: {', '.join(out.composites)}" if out.composites else ""))
     for line in pre.lines():
         print(f"  {line}")
+    # The run's own checks: a missing GPU, an existing output or saved chunks it would not
+    # take are refused here too, before the estimate (it would compute on that device).
+    refusal = runner.refusal(cfg, args.output, args.chunk_size, force=args.force,
+                             limits=_limits(args))
+    if refusal is not None:
+        print(f"sweep validate: error: `sweep run` would refuse {args.config}: {refusal}",
+              file=sys.stderr)
+        return 1
     if not args.no_estimate:
         rate, source, caveats = runner.estimate_rate(cfg, args.output)
         print(f"  estimated time: {preflight.format_duration(pre.n_points / rate)} at "
               f"{_format.rate(rate)} ({source})")
         for line in caveats:
             print(f"  caveat: {line}")
-    refusal = pre.refusal(_limits(args)) or pre.chunk_memory_refusal() or pre.disk_refusal()
-    if refusal is not None and not args.force:
-        print(f"sweep validate: error: `sweep run` would refuse {args.config}: {refusal}",
-              file=sys.stderr)
-        return 1
     return 0
 
 

@@ -479,3 +479,57 @@ def test_a_file_that_is_not_netcdf_is_one_line(tmp_path, capsys, monkeypatch, co
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.endswith("error: cannot read x.nc: not a netCDF file\n")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.nc"]     # nothing written
+
+
+def _refusal_of(argv, capsys):
+    """The one-line error of ``sweep ARGV`` (exit status 1), less its command's prefix."""
+    assert cli.main(argv) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    return err.split(": error: ", 1)[1].strip()
+
+
+def _validate_refuses_as_run_does(cfg, out, capsys, *extra):
+    """``sweep validate`` refuses with the refusal ``sweep run`` gives, time estimate or
+    not, and neither touches what is there."""
+    before = sorted(p.name for p in out.parent.iterdir())
+    said = _refusal_of(["run", str(cfg), "-o", str(out), "--quiet"], capsys)
+    for estimate in (["--no-estimate"], []):
+        text = _refusal_of(["validate", str(cfg), "-o", str(out), *estimate, *extra], capsys)
+        assert text == f"`sweep run` would refuse {cfg}: {said}"
+    assert sorted(p.name for p in out.parent.iterdir()) == before
+    return said
+
+
+def test_validate_refuses_an_existing_output_run_would_not_overwrite(cfg, tmp_path, capsys):
+    # Audit F3: validate said "valid" (exit 0) where run refused the existing -o.
+    out = tmp_path / "o.nc"
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 0
+    cfg.write_text(CONFIG.replace("steps = 16", "steps = 17"))
+    assert "different configuration" in _validate_refuses_as_run_does(cfg, out, capsys)
+    out.write_text("not a sweep output\n")
+    assert "is not a sweep output" in _validate_refuses_as_run_does(cfg, out, capsys)
+
+
+def test_validate_refuses_saved_chunks_run_would_not_resume(cfg, tmp_path, capsys):
+    from sweep import store
+
+    out = tmp_path / "o.nc"
+    # the partial state of another configuration's interrupted run into the same -o
+    partial = store.PartialStore(out, {"config_sha256": "another"})
+    partial.open()
+    partial.release()
+    said = _validate_refuses_as_run_does(cfg, out, capsys)
+    assert said.startswith(f"cannot resume {out}") and "different configuration" in said
+
+
+def test_validate_refuses_a_missing_gpu_before_its_estimate(cfg, tmp_path, capsys,
+                                                            monkeypatch):
+    # With the estimate on, validate computed on the missing device: "unexpected
+    # RuntimeError ... (rerun with --debug)"; without it, it said "valid".
+    from sweep.kernels import cuda
+
+    monkeypatch.setattr(cuda, "device_error", lambda: "no CUDA GPU here")
+    cfg.write_text(CONFIG.replace("steps = 16", 'steps = 16\ndevice = "cuda"'))
+    said = _validate_refuses_as_run_does(cfg, tmp_path / "o.nc", capsys)
+    assert said == 'integrator.device = "cuda": no CUDA GPU here'

@@ -412,13 +412,31 @@ class PartialStore:
             self.release()
             raise
 
-    def _open(self, restart):
+    def check(self) -> None:
+        """Refuse as :meth:`open` without ``restart`` would, reading only: no lock is
+        taken and nothing is written or deleted (``sweep validate``).
+
+        Raises
+        ------
+        ResumeError
+            As :meth:`open`: the saved state was made by a different configuration,
+            version or chunking, or its path is not a directory.
+        """
+        self._check_is_a_directory()
+        old = _read_manifest(self.dir)
+        if old is not None:
+            self._check_manifest(old)
+
+    def _check_is_a_directory(self):
         if self.dir.exists() and not self.dir.is_dir():
             # Not ours: neither resumed (mkdir said a bare "File exists") nor deleted by
             # --restart (rmtree said "Not a directory").
             raise ResumeError(f"{self.dir} exists and is not a directory, so not a run's "
                               "partial directory; move or delete it, or choose another "
                               "output with -o (out=)")
+
+    def _open(self, restart):
+        self._check_is_a_directory()
         if restart and self.dir.exists():
             shutil.rmtree(self.dir)
         self.discarded = remove_untrusted(self.output) or 0

@@ -93,7 +93,7 @@ from sweep.sweeps import progress as _progress_mod
 
 __all__ = ["ComputePlan", "compute_chunk", "run", "run_in_memory", "RunResult", "RunError",
            "CaveatWarning",
-           "default_output", "source_sha256", "preflight", "estimate_rate"]
+           "default_output", "source_sha256", "preflight", "refusal", "estimate_rate"]
 
 
 # --------------------------------------------------------------------------- computing
@@ -847,8 +847,15 @@ def estimate_rate(cfg: _config.Config | str | Path,
     (float, str, list of str)
         Points per second, its source, and one sentence per caveat of the calibration's
         largest sample (none after a last run: ``sweep info`` lists its caveats).
+
+    Raises
+    ------
+    sweep.sweeps.config.ConfigError, RunError
+        As :func:`preflight`; RunError also for ``integrator.device = "cuda"`` without a
+        usable GPU, as :func:`run` refuses it.
     """
     job = _prepare(cfg, output, None, True, None)
+    _check_device(job)  # a missing GPU named as the run names it, not from the kernels
     sample = {}
 
     def compute(*points):
@@ -919,24 +926,31 @@ def _drop_untrusted(job):
 
 
 def _existing_output_is_current(job, restart):
-    """Step 4: True if the output already holds this configuration's results.
+    """Step 4: True if the output already holds this configuration's results (see
+    :func:`_output_is_current`); never with ``restart``, which overwrites it."""
+    if restart:
+        return False
+    _drop_untrusted(job)
+    if not _output_is_current(job):
+        return False
+    job.log(f"{job.output} is up to date (same configuration and version); nothing to do. "
+            "Use --restart to recompute it.")
+    return True
 
-    An existing output is reused only if it is what this configuration would produce;
-    saved partial results (e.g. of an interrupted --restart) take precedence over it, and
-    any other existing file is refused rather than overwritten.
+
+def _output_is_current(job):
+    """True if the output holds this configuration's results; False if there is none or
+    saved partial results take precedence over it (e.g. of an interrupted --restart). Any
+    other existing file is refused rather than overwritten. Reads only.
     """
     output = job.output
-    if not restart:
-        _drop_untrusted(job)
-    if not output.exists() or restart or store.partial_dir(output).exists():
+    if not output.exists() or store.partial_dir(output).exists():
         return False
     attrs = store.read_global_attrs(output)
     if (attrs and attrs.get("sweep_config_sha256") == job.cfg.sha256
             and attrs.get("sweep_version") == __version__
             and attrs.get("sweep_source_sha256") == source_sha256()):
         _check_intact(output)
-        job.log(f"{output} is up to date (same configuration and version); nothing to do. "
-                "Use --restart to recompute it.")
         return True
     what = ("was made by a different configuration or version of sweep" if attrs
             else "is not a sweep output")
@@ -1414,6 +1428,43 @@ def run(cfg: _config.Config | str | Path, output: str | Path | None = None, *,
     if job.result.up_to_date:
         return job.result
     return _report(job, t_start)
+
+
+def refusal(cfg: _config.Config | str | Path, output: str | Path | None = None,
+            chunk_size: int | None = None, *, force: bool = False,
+            limits: _preflight_mod.Limits | None = None) -> str | None:
+    """Why :func:`run` with these arguments would refuse to start, or None: its own checks
+    in its order, reading only -- nothing is computed, locked, written or deleted.
+
+    The checks: the limits and a chunk's memory (unless ``force``), the device, an existing
+    output that is not this configuration's, the free disk (unless ``force``), and saved
+    partial results that cannot be resumed.
+
+    Parameters
+    ----------
+    cfg, output, chunk_size, force, limits
+        As for :func:`run`.
+
+    Returns
+    -------
+    str or None
+        The one-line message :func:`run` would raise.
+
+    Raises
+    ------
+    sweep.sweeps.config.ConfigError, RunError
+        As :func:`preflight` (configuration, output path, chunk size).
+    """
+    job = _prepare(cfg, output, chunk_size, True, None)
+    try:
+        _preflight(job, force, limits)
+        if not _output_is_current(job):
+            manifest = _plan_chunks(job)
+            _check_disk(job, force)
+            store.PartialStore(job.output, manifest).check()
+    except (RunError, store.ResumeError) as exc:
+        return str(exc)
+    return None
 
 
 # --------------------------------------------------------------------------- in memory
