@@ -3,15 +3,19 @@
 Every message of the command line, the runner, the preflight and ``sweep info`` writes
 counts as ``1 chunk`` / ``120,701 points`` (:func:`count`), rates as ``12,345 points/s``
 (:func:`rate`), sizes in decimal units (:func:`format_bytes`) and durations as ``35 s`` /
-``1 h 6 min`` (:func:`format_duration`).
+``1 h 6 min`` (:func:`format_duration`). An error writing a file names that file
+(:func:`naming`).
 
 Floor 0: imports nothing of the package (standard library only).
 """
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+from collections.abc import Iterator
 
-__all__ = ["count", "rate", "format_bytes", "format_duration"]
+__all__ = ["count", "rate", "format_bytes", "format_duration", "naming"]
 
 
 def count(n: int, noun: str, plural: str | None = None) -> str:
@@ -62,3 +66,24 @@ def format_duration(seconds: float) -> str:
         return f"{int(hours)} h {int(minutes % 60)} min"
     days = hours / 24
     return f"{days:.3g} days" if days < 730 else f"{days / 365.25:.3g} years"
+
+
+@contextlib.contextmanager
+def naming(path: str | os.PathLike) -> Iterator[None]:
+    """Name ``path`` in an OSError raised inside that names no file.
+
+    write(), close() and fsync() name none: a full disk said a bare "No space left on
+    device", which a command then blamed on the file it read.
+
+    Parameters
+    ----------
+    path : path-like
+        The file written (``"<stdout>"`` for standard output, as Python names it).
+    """
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is not None:
+            raise
+        # OSError(errno, ...) is the subclass of that errno again: BrokenPipeError stays one.
+        raise OSError(exc.errno, exc.strerror or str(exc), os.fspath(path)) from exc

@@ -23,7 +23,8 @@ Exit status: 0 success; 1 an error: invalid configuration, refused resume or pre
 output locked by another run, unreadable dataset, a file system or scheduler fault; 2 bad
 arguments; 130 interrupted, 143 terminated by SIGTERM (the finished chunks are kept; rerun
 the same command, less ``--restart``, to resume); 141 the reader of the output left
-(``sweep info X | head``: nothing is said, as for a command killed by SIGPIPE). ``sweep
+(``sweep info X | head``: nothing is said, as for a command killed by SIGPIPE); a stdout
+that cannot be written (``> /dev/full``) is an error naming ``<stdout>``. ``sweep
 run`` whose stderr fails midway (``2>&1 | head``, ``2>/dev/full``) drops its messages and
 progress from there on and finishes: 0 with the file complete, as if it had been
 ``--quiet``. Every error is one line on stderr naming the file, value or address and the
@@ -47,9 +48,13 @@ import sys
 import warnings
 from pathlib import Path
 
+from sweep._format import naming
 from sweep._version import __version__
 
 __all__ = ["main", "build_parser", "add_report_commands"]
+
+#: What an error writing standard output calls it (as Python names the stream).
+_STDOUT = "<stdout>"
 
 
 class _Parser(argparse.ArgumentParser):
@@ -267,14 +272,12 @@ def _cmd_validate(args):
     d = design.build(cfg.design, cfg.source)
     out = cfg.outputs
     pre = runner.preflight(cfg, args.output, args.chunk_size)
-    print(f"{args.config}: valid")
-    print(f"  {d.describe()}")
-    print(f"  stored variables: {', '.join(out.variables)}")
-    print(f"  numerical integration: {'yes' if out.needs_integration else 'no'}; "
-          f"approximations evaluated: {', '.join(out.approximations) or 'none'}"
-          + (f"; per-point choice: {', '.join(out.composites)}" if out.composites else ""))
-    for line in pre.lines():
-        print(f"  {line}")
+    _print(f"{args.config}: valid", f"  {d.describe()}",
+           f"  stored variables: {', '.join(out.variables)}",
+           f"  numerical integration: {'yes' if out.needs_integration else 'no'}; "
+           f"approximations evaluated: {', '.join(out.approximations) or 'none'}"
+           + (f"; per-point choice: {', '.join(out.composites)}" if out.composites else ""),
+           *(f"  {line}" for line in pre.lines()))
     # The run's own checks: a missing GPU, an existing output or saved chunks it would not
     # take are refused here too, before the estimate (it would compute on that device).
     refusal = runner.refusal(cfg, args.output, args.chunk_size, force=args.force,
@@ -285,10 +288,8 @@ def _cmd_validate(args):
         return 1
     if not args.no_estimate:
         rate, source, caveats = runner.estimate_rate(cfg, args.output)
-        print(f"  estimated time: {preflight.format_duration(pre.n_points / rate)} at "
-              f"{_format.rate(rate)} ({source})")
-        for line in caveats:
-            print(f"  caveat: {line}")
+        _print(f"  estimated time: {preflight.format_duration(pre.n_points / rate)} at "
+               f"{_format.rate(rate)} ({source})", *(f"  caveat: {line}" for line in caveats))
     return 0
 
 
@@ -326,7 +327,7 @@ def _cmd_info(args):
     except ValueError as exc:  # a netCDF file, but not a sweep output
         print(f"sweep info: error: {exc}", file=sys.stderr)
         return 1
-    print(text)  # outside the try: a closed stdout is no fault of the file (main's concern)
+    _print(text)  # outside the try: a closed stdout is no fault of the file (main's concern)
     return 0
 
 
@@ -367,10 +368,28 @@ def _cmd_run(args):
 
 # --------------------------------------------------------------------------- report
 
+@contextlib.contextmanager
+def _writing_stdout():
+    """An error writing stdout (``> /dev/full``) names stdout, not a file the command reads
+    or writes, and drops stdout: the interpreter's flush at exit would fail again, with a
+    traceback. A closed pipe stays a BrokenPipeError (main() leaves quietly)."""
+    try:
+        with naming(_STDOUT):
+            yield
+    except OSError:
+        _drop_stdout()
+        raise
+
+
+def _print(*lines: str) -> None:
+    """Print ``lines`` on stdout (see :func:`_writing_stdout`)."""
+    with _writing_stdout():
+        for line in lines:
+            print(line)
+
+
 def _print_files(res, heading):
-    print(heading)
-    for f in res["files"]:
-        print(f"  {f}")
+    _print(heading, *(f"  {f}" for f in res["files"]))
     return 0
 
 
@@ -394,9 +413,9 @@ def _cmd_paper(args):
     except UndecidedError as exc:   # the settings' fault, not the package's: no traceback
         _say(f"{_command_name(args)}: error: {exc}")
         return 1
-    print(res["markdown"])
+    _print(res["markdown"])
     _print_files(res, f"files in {res['out']}:")
-    print(res["summary"])  # last, where a reader of the terminal looks first
+    _print(res["summary"])  # last, where a reader of the terminal looks first
     return 0
 
 
@@ -409,7 +428,7 @@ def _cmd_speed(args):
                        tols=args.tols or TOLS, ref_steps=args.ref_steps, ref_tol=args.ref_tol,
                        peer_settings=peers, model=args.model, seed=args.seed,
                        repeat=args.repeat, progress=not args.quiet)
-    print(res["markdown"])
+    _print(res["markdown"])
     return _print_files(res, f"files in {res['out']}:")
 
 
@@ -499,7 +518,7 @@ def _cmd_error_model(args):
             args.usage_error(f"argument {option}: must fit in memory, got {value}: {why}")
     res = em.error_model_report(args.out, sub=args.sub, n_validate=args.n_validate,
                                 progress=not args.quiet)
-    print(res["markdown"])
+    _print(res["markdown"])
     return _print_files(res, "files:")
 
 
@@ -566,14 +585,15 @@ def _cmd_export(args):
     try:
         # The table first: a bad --variable is refused before any file is written.
         table = None if args.no_check else tables.Table(args.dataset, args.variable)
-        print(f"wrote {tables.export(args.dataset, out, fmt)}")
+        written = tables.export(args.dataset, out, fmt)
+        _print(f"wrote {written}")
         if table is not None:
             err = table.error()
             w, held = err["where"], _format.count(err["n_points"], "held-back point")
-            print(f"lookup ({err['variable']}, monotone PCHIP): interpolation error against "
-                  f"direct computation on {held}: max "
-                  f"{err['max_abs']:.3g} (at {w.get('material')}, v0 = {w.get('v0', 0):.4g} "
-                  f"m/s, F = {w.get('F', 0):.4g} N), median {err['median_abs']:.3g}")
+            _print(f"lookup ({err['variable']}, monotone PCHIP): interpolation error "
+                   f"against direct computation on {held}: max "
+                   f"{err['max_abs']:.3g} (at {w.get('material')}, v0 = {w.get('v0', 0):.4g} "
+                   f"m/s, F = {w.get('F', 0):.4g} N), median {err['median_abs']:.3g}")
     except BrokenPipeError:  # stdout closed, the dataset is fine: main() handles it
         raise
     except (OSError, ValueError) as exc:
@@ -654,7 +674,7 @@ def _cmd_bounce(args):
         if args.table is None or not _names(exc, args.table):
             raise               # a file of --out: main() names it
         return _input_fault(args, exc, args.table)
-    print(res["summary"])
+    _print(res["summary"])
     return _print_files(res, f"files in {args.out}:")
 
 
@@ -743,18 +763,20 @@ def _terminate(signum, frame):
     raise _Terminated
 
 
-def _stdout_closed() -> int:
-    """Leave quietly once the reader of stdout has gone (``sweep info X | head``).
-
-    Python's own recipe (its ``signal`` docs, "Note on SIGPIPE"): stdout is pointed at
-    devnull so that the interpreter's flush at exit does not fail again and print a
-    traceback. The status is a shell's for a command killed by SIGPIPE, 128 + 13.
-    """
+def _drop_stdout() -> None:
+    """Point stdout at devnull, Python's own recipe (its ``signal`` docs, "Note on
+    SIGPIPE"): the interpreter's flush at exit does not fail again and print a traceback."""
     try:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
     except (OSError, ValueError, AttributeError):  # stdout is no file (embedded, captured)
         pass
+
+
+def _stdout_closed() -> int:
+    """Leave quietly once the reader of stdout has gone (``sweep info X | head``), with the
+    status a shell gives a command killed by SIGPIPE, 128 + 13 (stdout dropped first)."""
+    _drop_stdout()
     return 128 + getattr(signal, "SIGPIPE", 13)
 
 
@@ -826,7 +848,8 @@ def main(argv: list[str] | None = None) -> int:
             previous = None
     try:
         status = args.func(args)
-        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        with _writing_stdout():
+            sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
         return status
     except BrokenPipeError:  # before Exception: it is an OSError, not the input's fault
         return _stdout_closed()

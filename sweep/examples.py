@@ -139,8 +139,9 @@ def lookup_cor(material: design.Material, g: float, v_lo: float, v_hi: float,
     Raises
     ------
     ValueError
-        A table that does not hold the material, or does not span [v_lo, v_hi] at F = 0,
-        before any impact (the lookup's own message, and the span the bounce needs).
+        A table that is no scene's table (named), or does not hold the material, or does
+        not span [v_lo, v_hi] at F = 0, before any impact (the lookup's own message, and
+        the span the bounce needs).
     """
     if table is None:
         with tempfile.TemporaryDirectory() as tmp:
@@ -149,9 +150,13 @@ def lookup_cor(material: design.Material, g: float, v_lo: float, v_hi: float,
             out = Path(tmp) / "bounce_table.nc"
             runner.run(cfg, out, quiet=True)
             t = tables.Table(out)
+        name = ""
     else:
-        t = tables.Table(table)
-    name = f" {table}" if isinstance(table, (str, Path)) else ""
+        name = f" {table}" if isinstance(table, (str, Path)) else ""
+        try:    # e.g. not a scene dataset: the user's file is named
+            t = tables.Table(table)
+        except ValueError as exc:
+            raise ValueError(f"lookup table{name}: {exc}") from None
     try:  # the two ends of the bounce, looked up: the lookup's own checks, once
         t(np.array([v_lo, v_hi]), 0.0, material.name)
         _check_same_bead(t, material, g)

@@ -29,8 +29,8 @@ lattice four times finer, not a proof. :func:`lookup` is the one-call form.
 
 Owns: interpolation of scene datasets, the held-back check and the export formats. May
 import: :mod:`sweep.api`, :mod:`sweep.model`, :mod:`sweep.registry`, :mod:`sweep._arrays`,
-:mod:`sweep.store` (:func:`~sweep.store.open_dataset`, which opens a file), numpy; scipy
-inside the functions (``import sweep`` stays light). Floor 3.
+:mod:`sweep._format`, :mod:`sweep.store` (:func:`~sweep.store.open_dataset`, which opens a
+file), numpy; scipy inside the functions (``import sweep`` stays light). Floor 3.
 """
 from __future__ import annotations
 
@@ -45,6 +45,7 @@ import numpy as np
 
 from sweep import api, registry, store
 from sweep._arrays import check_broadcast
+from sweep._format import naming
 from sweep.model import scale
 
 __all__ = ["Table", "lookup", "export", "SCENE_DIMS", "HELD_BACK_FRACTIONS"]
@@ -97,17 +98,22 @@ def _method_of(variable: Any) -> str:
     return method
 
 
+def _cor_variables(ds: Any) -> list[str]:
+    """The dataset's coefficients of restitution ``e_<method>``, in its order."""
+    # e_err begins with e_ too: a field (an error estimate), not a coefficient of
+    # restitution; a method no longer registered here still tabulates its e.
+    return [str(n) for n in ds.data_vars
+            if str(n).startswith("e_") and str(n) not in registry.FIELDS]
+
+
 def _default_variable(ds: Any) -> str:
     for name in ("e_numeric", "e_auto"):
         if name in ds:
             return name
-    # e_err begins with e_ too: a field (an error estimate), not a coefficient of
-    # restitution; a method no longer registered here still tabulates its e.
-    names = [n for n in ds.data_vars
-             if str(n).startswith("e_") and str(n) not in registry.FIELDS]
+    names = _cor_variables(ds)
     if not names:
         raise ValueError("the dataset stores no e_<method> variable")
-    return str(names[0])
+    return names[0]
 
 
 #: The nodes of a PCHIP that decide it in one cell: the cell's own two and one on either side,
@@ -164,10 +170,11 @@ class Table:
             raise ValueError(f"not a scene dataset: dimensions {tuple(ds.dims)}, expected "
                              f"{SCENE_DIMS}")
         self.variable = _default_variable(ds) if variable is None else variable
-        self.method = _method_of(self.variable)
+        # Its absence first: the list of what the file holds, not of every method known.
         if self.variable not in ds.data_vars:
             raise ValueError(f"the dataset has no variable {self.variable!r}; it has "
-                             f"{', '.join(str(v) for v in ds.data_vars if str(v)[:2] == 'e_')}")
+                             f"{', '.join(_cor_variables(ds)) or 'no e_<method>'}")
+        self.method = _method_of(self.variable)
         ds = ds.sortby(["v0", "F"])  # axes given as lists need not be increasing
         self.values = ds[self.variable].transpose(*SCENE_DIMS).values.astype(np.float64)
         self.materials = _material_names(ds)
@@ -429,6 +436,9 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
     ValueError
         An unknown format, not a scene dataset, a variable it does not have (named), or
         ``path`` the dataset's own file.
+    OSError
+        The dataset cannot be read, or ``path`` written (named in either case, a full
+        disk included).
     """
     path = Path(path)
     if isinstance(dataset, (str, os.PathLike)) and store.same_file(path, dataset):
@@ -448,5 +458,6 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
         raise ValueError(f"the dataset has no variable {missing[0]!r}; it has "
                          f"{', '.join(map(str, ds.data_vars))}")
     path.parent.mkdir(parents=True, exist_ok=True)   # as sweep run makes its output's
-    (_write_csv if fmt == "csv" else _write_npz)(ds, path, variables)
+    with naming(path):
+        (_write_csv if fmt == "csv" else _write_npz)(ds, path, variables)
     return path

@@ -533,3 +533,25 @@ def test_validate_refuses_a_missing_gpu_before_its_estimate(cfg, tmp_path, capsy
     cfg.write_text(CONFIG.replace("steps = 16", 'steps = 16\ndevice = "cuda"'))
     said = _validate_refuses_as_run_does(cfg, tmp_path / "o.nc", capsys)
     assert said == 'integrator.device = "cuda": no CUDA GPU here'
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full (not Linux)")
+@pytest.mark.parametrize("unbuffered", ["1", ""])
+def test_a_full_stdout_is_named_not_the_file(cfg, tmp_path, unbuffered):
+    # Audit F7: `> /dev/full` gave "sweep export: error: s.nc: [Errno 28] ..." (the input,
+    # although the CSV was written whole) and "sweep info: error: [Errno 28] ..." (no
+    # name); block-buffered, the interpreter's flush at exit failed again with 2 lines more.
+    (tmp_path / "s.toml").write_text(SCENE)
+    for config, out in ((cfg, "o.nc"), (tmp_path / "s.toml", "s.nc")):
+        assert cli.main(["run", str(config), "-o", str(tmp_path / out), "--quiet"]) == 0
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               PYTHONUNBUFFERED=unbuffered)
+    for argv in (["info", "o.nc"], ["validate", str(cfg), "--no-estimate"],
+                 ["export", "s.nc", "--csv", "-o", "s.csv"]):
+        with open("/dev/full", "w") as full:
+            res = subprocess.run([sys.executable, "-m", "sweep"] + argv, stdout=full,
+                                 stderr=subprocess.PIPE, text=True, cwd=tmp_path, env=env)
+        assert (res.returncode, res.stderr) == (
+            1, f"sweep {argv[0]}: error: <stdout>: No space left on device\n"), argv
+    with open(tmp_path / "s.csv") as f:             # the export itself was done
+        assert len(f.readlines()) == 1 + 3

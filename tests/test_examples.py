@@ -195,6 +195,23 @@ def test_bounce_refuses_a_table_that_does_not_span_it_before_writing(tmp_path, n
     assert not out.exists()
 
 
+def test_cli_bounce_names_a_table_that_is_no_scene(tmp_path, capsys):
+    # Audit F7: "error: not a scene dataset: dimensions (...)" named no file.
+    from sweep.sweeps import config, runner
+
+    grid = tmp_path / "grid.nc"
+    runner.run(config.loads('[design]\nkind = "grid"\nalpha = 1.5\nbeta = 1.5\n'
+                            'gamma = 0.1\ngtilde = [0.1, 1.0]\n[outputs]\ne = ["ord1"]\n'),
+               grid, quiet=True)
+    out = tmp_path / "out"
+    assert main(["example", "bounce", "--cor", "lookup", "--table", str(grid),
+                 "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"sweep example bounce: error: lookup table {grid}: not a scene "
+                          "dataset: ") and err.count("\n") == 1
+    assert not out.exists()
+
+
 def test_cli_bounce_with_a_narrow_table(tmp_path, narrow_table, capsys):
     out = tmp_path / "out"
     assert main(["example", "bounce", "--cor", "lookup", "--table", str(narrow_table),

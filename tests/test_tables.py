@@ -1,6 +1,7 @@
 """Lookup tables of a scene (sweep.tables, sweep.lookup) and their export."""
 import csv
 import json
+import os
 
 import numpy as np
 import pytest
@@ -205,6 +206,16 @@ def test_export_check_of_a_variable_that_is_not_e_writes_nothing(scene, tmp_path
         tables.Table(scene, "e_sp")
 
 
+def test_export_check_of_a_variable_not_held_lists_those_held(scene, tmp_path, capsys):
+    # Audit F7: --variable e_nope listed every method the package knows (e_sp, e_auto,
+    # ...), none of which this file holds: the scene stores e = ["numeric"] alone.
+    out = tmp_path / "t.csv"
+    assert main(["export", str(scene), "--csv", "-o", str(out), "--variable", "e_nope"]) == 1
+    err = capsys.readouterr().err
+    assert err.endswith(f"{scene}: the dataset has no variable 'e_nope'; it has e_numeric\n")
+    assert err.count("\n") == 1 and not out.exists()
+
+
 def test_lookup_refuses_strings_and_names_shapes(scene):
     with pytest.raises(ValueError, match=r"v0 must be a real number .*'1\.0' \(str\)"):
         sweep.lookup(scene, v0="1.0", F=0.0, material="steel")
@@ -239,3 +250,11 @@ def test_export_makes_the_output_directory(scene, tmp_path):
     with open(out, newline="") as fh:
         rows = list(csv.reader(fh))
     assert len(rows) == 1 + 2 * 25 * 6       # header, then one row per (material, v0, F)
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full (not Linux)")
+@pytest.mark.parametrize("fmt", ["--csv", "--npz"])
+def test_export_to_a_full_disk_names_the_output(scene, capsys, fmt):
+    # Audit F7: "sweep export: error: scene.nc: [Errno 28] ..." blamed the dataset read.
+    assert main(["export", str(scene), fmt, "-o", "/dev/full", "--no-check"]) == 1
+    assert capsys.readouterr().err == "sweep export: error: /dev/full: No space left on device\n"

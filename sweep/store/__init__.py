@@ -44,8 +44,9 @@ Modules, one job each:
 This package re-exports their public names (``from sweep import store; store.X``). It is
 floor 1: it may import numpy, netCDF4, xarray (lazily, in :mod:`~sweep.store.memory`) and
 floor 0 (:mod:`sweep.registry`'s facts in :mod:`~sweep.store.metadata` only,
-:mod:`sweep._format`'s number formats in :mod:`~sweep.store.summary`); it knows nothing of
-numba, the kernels, the api or how the values are computed.
+:mod:`sweep._format`'s number formats in :mod:`~sweep.store.summary` and its
+:func:`~sweep._format.naming` in :mod:`~sweep.store.partial`); it knows nothing of numba,
+the kernels, the api or how the values are computed.
 """
 from __future__ import annotations
 

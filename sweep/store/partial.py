@@ -23,8 +23,8 @@ One writer per output: :class:`OutputLock` holds an exclusive ``flock`` on ``OUT
 under another run) and records the holder's PID, host and start time, which a refused
 second writer names.
 
-May import: the standard library and numpy. Nothing of numba, the kernels or any floor
-above the store.
+May import: the standard library, numpy and :mod:`sweep._format` (floor 0: a write's
+error names its file). Nothing of numba, the kernels or any floor above the store.
 """
 from __future__ import annotations
 
@@ -42,6 +42,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from sweep._format import naming
 
 try:
     import fcntl
@@ -113,7 +115,7 @@ def write_atomic(path: Path, data_or_writer: bytes | Callable[[Any], None]) -> N
     """
     tmp = path.with_name(path.name + f".tmp{os.getpid()}")
     try:
-        with open(tmp, "wb") as fh:
+        with naming(path), open(tmp, "wb") as fh:
             if callable(data_or_writer):
                 data_or_writer(fh)
             else:
@@ -121,14 +123,10 @@ def write_atomic(path: Path, data_or_writer: bytes | Callable[[Any], None]) -> N
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException as exc:
+    except BaseException:
         # A full disk leaves a half-written temporary file: give its space back at once.
         with contextlib.suppress(OSError):
             tmp.unlink()
-        if isinstance(exc, OSError) and exc.filename is None:
-            # write() and fsync() name no file (a full disk said a bare "No space left on
-            # device"): name the one that could not be written.
-            raise OSError(exc.errno, exc.strerror, str(path)) from exc
         raise
 
 
