@@ -81,18 +81,28 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _int_at_least(low, high=None):
-    """An argparse ``type=``: an integer >= ``low`` (and <= ``high``, if given)."""
+    """An argparse ``type=``: an integer >= ``low`` (and <= ``high``, if given), also in
+    the form of a float that is one (``1e9``: how ``--help`` prints the defaults)."""
     rule = f">= {low}" if high is None else f"from {low} to {high:,}"
 
     def convert(text):
         try:
             value = int(text)
         except ValueError:
-            value = low - 1
+            value = _integral_float(text, low - 1)
         if not (low <= value and (high is None or value <= high)):
             raise argparse.ArgumentTypeError(f"must be an integer {rule}, got {text!r}")
         return value
     return convert
+
+
+def _integral_float(text, otherwise):
+    """``text`` read as a float, as an int if it is a whole number, else ``otherwise``."""
+    try:
+        value = float(text)
+    except ValueError:
+        return otherwise
+    return int(value) if value.is_integer() else otherwise
 
 
 _positive_int = _int_at_least(1)
@@ -239,7 +249,7 @@ def _add_run_command(sub):
                    help="seconds to wait for the scheduler to answer (default "
                         f"{limits.SCHEDULER_TIMEOUT_S:g})")
     _add_debug(p)
-    p.set_defaults(func=_cmd_run)
+    p.set_defaults(func=_cmd_run, usage_error=p.error)
 
 
 def _add_info_and_validate_commands(sub):
@@ -352,6 +362,10 @@ def _dask_logs_off(args):
 def _cmd_run(args):
     from sweep.sweeps import runner
 
+    if args.scheduler_timeout is not None and args.scheduler is None:
+        # ignored, it would look as if it had bounded something (a local run waits for none)
+        args.usage_error(f"argument --scheduler-timeout: applies to --scheduler only, got "
+                         f"{args.scheduler_timeout!r}")
     with warnings.catch_warnings(record=True) as caught, _dask_logs_off(args):
         warnings.simplefilter("always", runner.CaveatWarning)
         runner.run(args.config, args.output, restart=args.restart, quiet=args.quiet,

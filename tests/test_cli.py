@@ -555,3 +555,31 @@ def test_a_full_stdout_is_named_not_the_file(cfg, tmp_path, unbuffered):
             1, f"sweep {argv[0]}: error: <stdout>: No space left on device\n"), argv
     with open(tmp_path / "s.csv") as f:             # the export itself was done
         assert len(f.readlines()) == 1 + 3
+
+
+def test_a_scheduler_timeout_without_a_scheduler_is_a_usage_error(cfg, tmp_path, capsys):
+    # Audit F8: accepted and ignored (exit 0), as if it had bounded something.
+    out = tmp_path / "o.nc"
+    with pytest.raises(SystemExit) as info:
+        cli.main(["run", str(cfg), "-o", str(out), "--scheduler-timeout", "2"])
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and err.count("\n") == 1 and not out.exists()
+    assert "argument --scheduler-timeout: applies to --scheduler only, got 2.0" in err
+
+
+def test_max_points_takes_the_default_as_help_prints_it(cfg, capsys):
+    # Audit F8: the help said "(default 1e+09)" but --max-points 1e9 was "must be an
+    # integer >= 1", although --max-size 1e9 was taken.
+    run = next(p for p in cli._leaf_parsers(cli.build_parser()) if p.prog == "sweep run")
+    option = next(a for a in run._actions if a.dest == "max_points")
+    default = option.help.split("(default ")[1].rstrip(")")
+    for value in (default, "1e9", "3000.0"):
+        assert cli.main(["validate", str(cfg), "--no-estimate", "--max-points", value]) == 0
+    capsys.readouterr()
+    assert cli.main(["validate", str(cfg), "--no-estimate", "--max-points", "59.0"]) == 1
+    assert "above the limit of 59 points" in capsys.readouterr().err      # 60 points
+    for value in ("1.5", "inf", "nan", "0.0"):
+        with pytest.raises(SystemExit) as info:
+            cli.main(["validate", str(cfg), "--max-points", value])
+        assert info.value.code == 2
+        assert f"must be an integer >= 1, got {value!r}" in capsys.readouterr().err

@@ -230,6 +230,17 @@ def test_load_reports_missing_file(tmp_path):
         config.load(tmp_path / "nope.toml")
 
 
+def test_load_reads_a_file_with_a_utf8_byte_order_mark(tmp_path):
+    # Audit F8: a BOM (Notepad writes one) gave "not valid TOML: Invalid statement (at
+    # line 1, column 1)", no hint why. The file is the configuration without it.
+    plain, marked = tmp_path / "plain.toml", tmp_path / "marked.toml"
+    plain.write_text(GRID, encoding="utf-8")
+    marked.write_text(GRID, encoding="utf-8-sig")
+    assert marked.read_bytes().startswith(b"\xef\xbb\xbf")
+    assert config.load(marked).sha256 == config.load(plain).sha256
+    assert config.load(marked).text == GRID
+
+
 def test_bundled_configs_are_valid_and_sized_as_documented():
     paths = sorted(CONFIGS.glob("*.toml"))
     names = {p.stem: config.load(p) for p in paths}

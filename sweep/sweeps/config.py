@@ -1084,7 +1084,8 @@ def _read_config_bytes(path):
 
 
 def load(path):
-    """Read and validate the configuration file at ``path`` (see :func:`loads`).
+    """Read and validate the configuration file at ``path`` (see :func:`loads`), UTF-8
+    text with or without a byte-order mark.
 
     Raises
     ------
@@ -1102,7 +1103,9 @@ def load(path):
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{path}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
                           f"{exc.start}); save the configuration as UTF-8") from None
-    return loads(text, source=str(path))
+    # The byte-order mark some editors write is no TOML: tomllib refused it as "Invalid
+    # statement (at line 1, column 1)", a line that looked right. It is read as UTF-8 is.
+    return loads(text.removeprefix("\ufeff"), source=str(path))
 
 
 def from_dict(data: Any, source: str = "") -> Config:
