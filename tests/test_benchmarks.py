@@ -192,9 +192,10 @@ def test_error_model_script_prints_one_line_per_law_and_resolution():
         assert errs[law, 48.0] < errs[law, 24.0] / 4
 
 
-def test_tol_margin_script_finds_the_estimate_a_bound():
-    lines = _script_lines("tol_margin.py", "--n", "400")
-    assert len(lines) == 4 * (3 + 4)          # 4 laws x (3 tolerances + 4 resolutions)
+@pytest.mark.parametrize("draw, laws", [((), 4), (("--heavy",), 5)])
+def test_tol_margin_script_finds_the_estimate_a_bound(draw, laws):
+    lines = _script_lines("tol_margin.py", "--n", "400", *draw)
+    assert len(lines) == laws * (3 + 1 + 4)   # laws x (3 tolerances, defaults, 4 resolutions)
     for line in lines:
         # The largest true error over e_err: a bound at every tolerance and resolution.
         assert float(line.split(" max ")[1].split(";")[0]) < 1.0, line
