@@ -477,7 +477,7 @@ def _kernel(alpha, beta, gamma, gtilde, s, e, t_f, u_max, n_steps, status, e_err
         k = _refinement_pass(alpha, beta, gamma, gtilde, s, where[:k], rows, out)
 
 
-@jit()
+@jit(inline="always")
 def _sort(s, a, i, steps, where, rows, k, out):
     """Point i's first march (its :class:`Result` ``a``, at resolution ``steps``) to ``out``,
     or, where it needs refining, to row k of the refining points; returns their count."""
@@ -507,7 +507,7 @@ def _after_probes(alpha, beta, gamma, gtilde, s, todo, probed, steps, budget, wh
 _N_REFINING = 12
 
 
-@jit()
+@jit(inline="always")
 def _put_refining(rows, j, r):
     R = rows
     a = r.last
@@ -516,7 +516,7 @@ def _put_refining(rows, j, r):
     R[j, 8], R[j, 9], R[j, 10], R[j, 11] = a.status, a.err, a.e_q, a.e_v
 
 
-@jit()
+@jit(inline="always")
 def _refining_at(rows, j):
     R = rows
     a = Result(R[j, 4], R[j, 5], R[j, 6], int(R[j, 7]), int(R[j, 8]), R[j, 9], R[j, 10],
@@ -588,7 +588,7 @@ def _refinement_pass(alpha, beta, gamma, gtilde, s, where, rows, out):
     return k
 
 
-@jit()
+@jit(inline="always")
 def _put(out, i, r):
     out[0][i], out[1][i], out[2][i], out[3][i], out[4][i], out[5][i] = r
 
