@@ -4,8 +4,9 @@
     python benchmarks/tol_margin.py [--n 40000] [--heavy]
 
 For the KK, TTI, linear and general-exponent draws of ``benchmarks/run_all.py`` (``--heavy``:
-the same laws and SHC at gamma = 10**U(-0.5, 0.7), g~ = 10**U(-4, 1), where e is 0.01-0.5
-and the bead loses most of its energy: the calibration's draws stop at gamma = 0.32), marches
+the same laws, Hertz (1.5, 1) and SHC (1.5, 2.5) at gamma = 10**U(-0.5, 0.7), g~ =
+10**U(-4, 1), where e is 0.01-0.5 and the bead loses most of its energy: the
+calibration's draws stop at gamma = 0.32), marches
 every point once (no refinement) and compares with the integrator at 500 steps and tol
 1e-12 (within ~1e-13 of DOP853). Prints, per law:
 
@@ -32,7 +33,8 @@ def draws(n, rng, heavy=False):
     yield "kk", np.full(n, 1.5), np.full(n, 1.5), g, gt
     yield "tti", np.full(n, 1.5), np.full(n, 1.25), g, gt
     if heavy:
-        yield "shc", np.full(n, 1.5), np.ones(n), g, gt
+        yield "hertz", np.full(n, 1.5), np.ones(n), g, gt
+        yield "shc", np.full(n, 1.5), np.full(n, 2.5), g, gt
     yield "linear", np.ones(n), np.ones(n), g, gt
     yield "general", rng.uniform(1, 3, n), rng.uniform(1, 3, n), g, gt
 

@@ -192,7 +192,7 @@ def test_error_model_script_prints_one_line_per_law_and_resolution():
         assert errs[law, 48.0] < errs[law, 24.0] / 4
 
 
-@pytest.mark.parametrize("draw, laws", [((), 4), (("--heavy",), 5)])
+@pytest.mark.parametrize("draw, laws", [((), 4), (("--heavy",), 6)])
 def test_tol_margin_script_finds_the_estimate_a_bound(draw, laws):
     lines = _script_lines("tol_margin.py", "--n", "400", *draw)
     assert len(lines) == laws * (3 + 1 + 4)   # laws x (3 tolerances, defaults, 4 resolutions)

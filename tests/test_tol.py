@@ -73,6 +73,26 @@ def test_estimate_bounds_a_heavily_damped_linear_rebound(options):
     assert np.all(err <= options.get("tol", 1.0) + REF_SLACK["linear"]), err.max()
 
 
+@pytest.mark.parametrize("point, options", [
+    # A creep's local steps at large alpha (stepsize.LOCAL_ALPHA): status OK, e_err within
+    # tol, the true error 2.8-4 tol and up to 12 e_err, until 2026-12-07 (an audit).
+    ((8.592439923525447, 5.280212397599563, 0.5781817320415795, 0.0), {"tol": 1e-8}),
+    ((6.0, 4.0, 0.62, 0.0), {"tol": 1e-10}),
+    ((9.556300028763609, 7.930922691401985, 1.0487607495822189, 0.0011396751764256915),
+     {"tol": 1e-6}),
+    ((10.0, 6.0, 0.57, 0.0), {"steps": 48, "refine": False}),
+    ((8.248108198482647, 8.567192802560415, 1.7787003957092116, 0.00181481651549459),
+     {"steps": 32, "refine": False}),
+])
+def test_a_creep_at_large_alpha_meets_tol_and_its_estimate(point, options):
+    r = sweep.integrate(*point, **options)
+    err = abs(r.e - reference.dop853_cor(*point).e)
+    slack = REF_SLACK["general"]
+    assert r.status == sweep.Status.OK
+    assert err <= r.e_err + slack, err / r.e_err
+    assert err <= options.get("tol", 1.0) + slack, err
+
+
 def test_first_march_estimate_keeps_its_room_at_every_resolution():
     alpha, beta, gamma, gtilde, e_ref = draw("linear")
     worst = {}

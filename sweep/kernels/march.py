@@ -525,7 +525,7 @@ def _creep_rules(st, c, k, K, e_tol):
     if st.phase > 1 and _creeping_back(u, c):
         # Creeping back: steps follow the local time scales, which grow as u
         # falls (docs/creep.md, section 7).
-        st = _with_policy(st, local_policy(p))
+        st = _with_policy(st, local_policy(p, c.alpha))
     kind, h = _creep_rule(c, k, u, w, r, v, st.e0, e_tol, st.phase)
     if kind == SPENT:
         doubt = _stick_doubt(st, c)
