@@ -93,6 +93,24 @@ def test_a_creep_at_large_alpha_meets_tol_and_its_estimate(point, options):
     assert err <= options.get("tol", 1.0) + slack, err
 
 
+@pytest.mark.parametrize("point", [
+    # Near the stick boundary, beta well above alpha: the march at tol's coarse resolution
+    # left with e ~ 1e-3 from the velocity while the balance said the energy was spent;
+    # e_err 7e-5. auto at tol 1e-4 returned those rebounds (up to 11.5 tol), sticks among
+    # them, without a word, until 2026-12-07 (an audit).
+    (1.0822798646847622, 2.7236795974886316, 0.556597586323234, 0.3069364523603945),
+    (1.5, 2.5, 0.7731360904822817, 0.16099527366380648),
+    (1.182865867821907, 2.6033402413213595, 0.7167619608443337, 0.2384640631120055),
+])
+@pytest.mark.parametrize("method", ["numeric", "auto"])
+def test_a_coarse_march_near_the_stick_boundary_meets_tol(point, method):
+    tol = 1e-4
+    e = sweep.cor(*point, method=method, tol=tol)
+    ref = reference.dop853_cor(*point)
+    assert abs(e - ref.e) <= tol, (e, ref.e)
+    assert (e == 0.0) == ref.sticks
+
+
 def test_first_march_estimate_keeps_its_room_at_every_resolution():
     alpha, beta, gamma, gtilde, e_ref = draw("linear")
     worst = {}
