@@ -30,8 +30,8 @@ import math
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import potential, well_depth
 
-__all__ = ["q_error", "swing2", "defect_share", "rebound_share", "KAPPA_Q", "KAPPA_STEPS", "COARSE_STEPS",
-           "ROUNDING", "PATH_WEIGHT", "REBOUND_SHARE"]
+__all__ = ["q_error", "swing2", "defect_share", "rebound_share", "coarse_room", "KAPPA_Q",
+           "KAPPA_STEPS", "COARSE_STEPS", "ROUNDING", "PATH_WEIGHT", "REBOUND_SHARE"]
 
 #: Global error of q per unit of the summed embedded local error estimates of the
 #: dissipation integral: a conservative factor at resolutions up to KAPPA_STEPS (the
@@ -83,7 +83,7 @@ REBOUND_SHARE = 1.5
 
 
 @jit(inline="always")
-def _coarse(steps):
+def coarse_room(steps):
     """Room the march's estimate needs below :data:`COARSE_STEPS` (see there)."""
     return (COARSE_STEPS / steps) ** 1.5 if steps < COARSE_STEPS else 1.0
 
@@ -103,7 +103,7 @@ def q_error(c, u, v, h, lq, n, steps, share):
     included (module docstring)."""
     defect = 0.5 * v * v + potential(u, c) - h
     kappa = KAPPA_Q * min(1.0, KAPPA_STEPS / steps)
-    return (kappa * lq + share * abs(defect) / swing2(c)) * _coarse(steps) \
+    return (kappa * lq + share * abs(defect) / swing2(c)) * coarse_room(steps) \
         + ROUNDING * math.sqrt(n + 1.0)
 
 

@@ -51,12 +51,14 @@ import math
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.balance import ROUNDING, defect_share, q_error, rebound_share, swing2
+from sweep.kernels.balance import (ROUNDING, coarse_room, defect_share, q_error, rebound_share,
+                                   swing2)
 from sweep.kernels.contact import KIND_EXPONENTS, ppow_called
 from sweep.kernels.march import CREEP, EXIT, NEGLIGIBLE, REST, SPENT, TROUGH
 from sweep.registry import Status
 
-__all__ = ["decide", "cor_at_exit", "exit_time", "KAPPA_W", "GRAZING_LEAD", "GRAZING_CERTAIN",
+__all__ = ["decide", "cor_at_exit", "exit_time", "KAPPA_W", "COARSE_POWER_W", "GRAZING_LEAD",
+           "GRAZING_CERTAIN",
            "GRAZING_SPEED", "GRAZING_MAX", "GRAZING_DAMPING", "BALANCE_MIN_E2",
            "DAMPED_OUT"]
 
@@ -72,6 +74,15 @@ DAMPED_OUT = 20.0
 #: Global error of the velocity per unit of the summed embedded local error estimates of
 #: w: a conservative factor, calibrated with :data:`sweep.kernels.balance.KAPPA_Q`.
 KAPPA_W = 1.5
+#: Below ``balance.COARSE_STEPS`` a rebound's e from the velocity takes ``KAPPA_W lw``
+#: times ``balance.coarse_room(steps)`` to this power, ``(16 / steps)^4.5``: 22.6 at the 8
+#: steps that ``tol`` from 3e-5 up marches first at. KAPPA_W was calibrated from 16 steps on;
+#: an audit found 129 points near the stick boundary, beta far above alpha, whose 8-step
+#: march left with -v off by up to 10 of its estimate (35 sticks returned as rebounds, up
+#: to 8 tol at 1e-5, no warning). Power 1 left 14 of them, 2 left 3, 3 none; the heavily
+#: damped draws at tol 1e-3 .. 1e-6 take 0-0.4% more steps, the calibration draws (16 steps
+#: and more) none (docs/accuracy.md).
+COARSE_POWER_W = 3.0
 #: Speed below which the velocity's estimate grows like GRAZING_SPEED / e, up to
 #: GRAZING_MAX times. Near grazing the bead leaves with a small e after a stretch of light
 #: damping, so an error dE of the energy there becomes dE / e in the velocity, and the
@@ -168,7 +179,8 @@ def _exit(c, end, h, dq, swing2, steps):
     if balance:
         err = q_error(c, end.u, end.v, h, end.lq, end.n, steps, rebound_share(h)) / e
     else:
-        err = _velocity_error(end, e, lam, swing2, c.gtilde)
+        err = _velocity_error(end, e, lam, swing2, c.gtilde) * coarse_room(steps) \
+            ** COARSE_POWER_W
         if lam <= DAMPED_OUT:
             # The energy left is too small for the balance (2 h <= BALANCE_MIN_E2), which
             # the damping has not made the worse of the two: the balance says the energy is
