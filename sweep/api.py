@@ -131,7 +131,9 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
         :func:`sweep.kernels.stepsize.tol_share`) and points whose error estimate ``e_err``
         exceeds ``tol`` are checked and refined (``refine``). ``tol`` bounds e; ``t_f`` and
         ``u_max`` follow the march (relative errors up to ~1e-7 at ``tol=1e-8``,
-        docs/accuracy.md section 5). Without it: ``steps`` and a refinement target of 1e-9
+        docs/accuracy.md section 5; after a creep's jump along its slow branch, g~ = 0
+        and kappa < 0, ``t_f`` is short by up to 2e-5 whatever the resolution). Without
+        it: ``steps`` and a refinement target of 1e-9
         (:data:`sweep.kernels.integrator.REFINE_TARGET`).
     steps : float, optional
         Resolution for experts: steps per half period of the stiffest linearised motion

@@ -679,7 +679,8 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
           "duration beyond double precision, though it may leave at a finite time with an e "
           "below it); where the budget ran out, the time reached. Read off the march that "
           "gave e; near grazing under a load, the crossing at speed e about the march's "
-          "vertex (docs/accuracy.md, section 5)", fill_value=math.nan),
+          "vertex; after a creep's jump along its slow branch (g~ = 0, kappa < 0) short by "
+          "up to 2e-5 relative (docs/accuracy.md, section 5)", fill_value=math.nan),
     Field("u_max", np.dtype(np.float64), "maximum compression u_M",
           "scaled maximum compression u(tau_0) where v = 0 (Algorithm 1, phase 1), in units "
           "of delta = v0 T of eq. (2); NaN where the point was decided before it (a bead "
