@@ -17,7 +17,7 @@ import numpy as np
 
 from sweep import registry
 
-__all__ = ["Broadcast", "broadcast_points", "check_broadcast"]
+__all__ = ["Broadcast", "broadcast_points", "check_broadcast", "flat_broadcast"]
 
 
 class Broadcast:
@@ -44,7 +44,7 @@ class Broadcast:
         check_broadcast(names, arrays)
         self.shape = np.broadcast_shapes(*(a.shape for a in arrays))
         self.names = tuple(names)
-        self.flat = [_flat(a, self.shape) for a in arrays]
+        self.flat = [flat_broadcast(a, self.shape) for a in arrays]
 
     @property
     def size(self) -> int:
@@ -66,7 +66,7 @@ class Broadcast:
             registry.check_scalar(name, float(value[0]))
 
 
-def _flat(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+def flat_broadcast(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     """``a`` broadcast to ``shape``, flat, C-contiguous and writeable."""
     # Not np.broadcast_arrays: its views carry numpy's "warn on write" flag, which numba's
     # typeof turns into a FutureWarning on the user's stderr when a call compiles or loads

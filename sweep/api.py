@@ -28,7 +28,8 @@ __all__ = ["integrate", "cor", "cor_with_status", "cor_fields", "IntegrationResu
            "APPROXIMATIONS", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS", "DEFAULT_REST_TOL",
            "coefficients", "coefficients_at_zero", "first_order_coefficients",
            "large_gtilde_coefficient", "SP_C2", "integrator_settings", "method_settings",
-           "recorded_settings", "given_options", "method_arrays"]
+           "recorded_settings", "given_options", "method_arrays",
+           "composite_integrator_settings"]
 
 #: The report's closed-form approximations (Sections 4-5) built into the package.
 APPROXIMATIONS = registry.approximations()
@@ -89,6 +90,14 @@ def method_settings(method: str, options: dict[str, Any]) -> dict[str, Any]:
 def integrator_settings(**options: Any) -> dict[str, Any]:
     """:func:`method_settings` of the integration (``"numeric"``)."""
     return method_settings("numeric", options)
+
+
+def composite_integrator_settings(tol: float, options: dict[str, Any]) -> dict[str, Any]:
+    """:func:`integrator_settings` of a composite method's integrated points: those of its
+    ``options`` the integrator has, and its ``tol`` [1, abs error of e]."""
+    names = {opt.name for opt in registry.METHODS["numeric"].options}
+    return integrator_settings(**{**{k: v for k, v in options.items() if k in names},
+                                  "tol": tol})
 
 
 def recorded_settings(attrs: Any, method: str) -> dict[str, Any]:

@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from sweep import registry
-from sweep.api import integrator_settings
+from sweep.api import composite_integrator_settings
 
 __all__ = ["ErrorModel", "DATA_FILE", "CODES_PER_DECADE", "NO_BOUND", "encode", "decode",
            "default_model", "select", "serve", "auto_cor"]
@@ -195,13 +195,6 @@ def select(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: np.nd
     return np.where(ok.any(axis=1), chosen, np.int8(registry.SERVED_BY["numeric"]))
 
 
-def _integrator_options(tol: float, options: dict[str, Any]) -> dict[str, Any]:
-    """The integration's options: auto's own (those the integrator has), and its tol."""
-    names = {opt.name for opt in registry.METHODS["numeric"].options}
-    given = {k: v for k, v in options.items() if k in names}
-    return integrator_settings(**{**given, "tol": tol})
-
-
 def serve(alpha: np.ndarray, beta: np.ndarray, gamma: np.ndarray, gtilde: np.ndarray,
           codes: np.ndarray, tol: float, **options: Any) -> tuple[np.ndarray, np.ndarray]:
     """e and status of flat arrays of points, each by the method its code names.
@@ -251,7 +244,7 @@ def _integrated(m: registry.Method, alpha: np.ndarray, beta: np.ndarray, gamma: 
     (but not out of budget) integrated again (:data:`RETRY_TOL_FACTORS`); ``missed``: the
     points whose estimate stays above it (the front ends warn or count them)."""
     e, status, *extra = m.resolve()(alpha, beta, gamma, gtilde,
-                                    **_integrator_options(tol, options))
+                                    **composite_integrator_settings(tol, options))
     if not extra or "e_err" not in extra[0]:   # an integrator without an estimate
         return e, status, np.zeros(e.shape, dtype=bool)
     e_err = extra[0]["e_err"]
@@ -261,7 +254,7 @@ def _integrated(m: registry.Method, alpha: np.ndarray, beta: np.ndarray, gamma: 
             break
         e[above], status[above], x = m.resolve()(
             alpha[above], beta[above], gamma[above], gtilde[above],
-            **_integrator_options(factor * tol, options))
+            **composite_integrator_settings(factor * tol, options))
         e_err[above] = x["e_err"]
     return e, status, registry.misses_tol(e_err, status, tol)
 

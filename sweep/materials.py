@@ -218,12 +218,12 @@ def gamma0_for_cor(e: float, v0: float, m: float, k: float, alpha: float, beta: 
         if hi > 1e6:
             raise ValueError(f"no damping gives e = {e!r} at v0 = {v0!r} m/s")
     gamma = brentq(excess, 0.0, hi, xtol=1e-300, rtol=1e-13, maxiter=200)
-    got = api.cor(alpha, beta, gamma, gtilde, steps=steps)
-    if not abs(got - e) <= REACHED * e:
+    miss = excess(gamma)
+    if not abs(miss) <= REACHED * e:
         # Brent's method ends at a jump of e instead: the stick threshold, where e falls
         # to 0 within gamma0's rounding (or an e below what the march resolves, reported 0).
         raise ValueError(f"no damping gives e = {e!r} at v0 = {v0!r} m/s: e falls past it "
-                         f"to {got:.3g} at gamma0 = {gamma / per_gamma0:.6g} (near the "
+                         f"to {e + miss:.3g} at gamma0 = {gamma / per_gamma0:.6g} (near the "
                          "stick threshold e moves faster than gamma0 can be set)")
     return float(gamma / per_gamma0)
 

@@ -23,7 +23,7 @@ import numba as nb
 import numpy as np
 
 from sweep import registry
-from sweep._arrays import check_broadcast
+from sweep._arrays import check_broadcast, flat_broadcast
 from sweep.kernels import contact
 from sweep.kernels._jit import cached_jit, jit, kernel_cache
 from sweep.registry import MODELS, Status
@@ -138,8 +138,7 @@ def _scaled(args: dict, load: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     general-exponent points), so a scene's gamma depended on the array's layout."""
     inputs = [args[n] for n in ("m", "k", "gamma0", "v0", "alpha", "beta")] + [load]
     shape = np.broadcast_shapes(*(np.shape(x) for x in inputs))
-    flat = [np.ascontiguousarray(np.broadcast_to(x, shape), dtype=np.float64).reshape(-1)
-            for x in inputs]
+    flat = [flat_broadcast(np.asarray(x), shape) for x in inputs]
     gamma, gtilde = np.empty(flat[0].size), np.empty(flat[0].size)
     _scaled_points(*flat, gamma, gtilde)
     gamma, gtilde = gamma.reshape(shape), gtilde.reshape(shape)

@@ -330,7 +330,7 @@ def check_array(name: str, value: Any, domain: Mapping[str, Parameter] | None = 
     ValueError
         One line naming the parameter and the first offending value.
     """
-    parameter = (domain or {**PARAMETERS, **PHYSICAL})[name]
+    parameter = _domain_of(name, domain)
     arr = real_array(name, value)
     message = _message(name, parameter, arr)
     if message:
@@ -338,10 +338,16 @@ def check_array(name: str, value: Any, domain: Mapping[str, Parameter] | None = 
     return arr
 
 
+def _domain_of(name: str, domain: Mapping[str, Parameter] | None = None) -> Parameter:
+    """The parameter ``name`` of ``domain`` (default :data:`PARAMETERS`, then
+    :data:`PHYSICAL`)."""
+    return (domain or {**PARAMETERS, **PHYSICAL})[name]
+
+
 def check_scalar(name: str, value: float) -> None:
     """Raise ``ValueError`` naming ``value`` if it lies outside the domain of ``name`` (the
     message of :func:`check_array`)."""
-    parameter = {**PARAMETERS, **PHYSICAL}[name]
+    parameter = _domain_of(name)
     if not parameter.ok(float(value)):
         raise ValueError(_message(name, parameter, np.float64(value)))
 

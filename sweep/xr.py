@@ -118,8 +118,8 @@ def cor(alpha: Any, beta: Any, gamma: Any, gtilde: Any, method: str = "numeric",
         Passed to :func:`sweep.cor`: the method's options (:attr:`sweep.registry.Method.options`:
         ``tol``, ``steps``, ``rest_tol``, ``max_steps``, ``refine``, ``device`` for
         ``"numeric"`` and ``"auto"``; ``n`` for ``"ord2_approx"``) and, for
-        ``"numeric"``, ``parallel``; checked at call time. The result's attributes record them, defaults resolved
-        (``steps`` "default" where ``tol`` chooses the resolution).
+        ``"numeric"``, ``parallel``; checked at call time. The result's attributes record
+        them, defaults resolved (``steps`` "default" where ``tol`` chooses the resolution).
 
     Returns
     -------

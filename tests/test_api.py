@@ -173,7 +173,8 @@ def test_masked_values_are_refused_not_computed_from_the_hidden_data():
         with pytest.raises(ValueError, match=r"^\w+ has 1 masked value\(s\), whose hidden data"):
             call()
     unmasked = np.ma.masked_array([0.05, 0.1])
-    assert np.array_equal(sweep.cor(1.5, 1.5, unmasked, 1.0), sweep.cor(1.5, 1.5, [0.05, 0.1], 1.0))
+    assert np.array_equal(sweep.cor(1.5, 1.5, unmasked, 1.0),
+                          sweep.cor(1.5, 1.5, [0.05, 0.1], 1.0))
 
 
 def test_numpy_typed_options_give_the_bits_of_the_same_python_values():

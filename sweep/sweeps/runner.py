@@ -381,18 +381,17 @@ def _integrator_attrs(plan):
     "not run", with [integrator]'s steps or refine changing its e unrecorded)."""
     numeric = registry.METHODS["numeric"]
     if plan.integrate:
-        used, what = plan.integrator, ""
+        used, what = api.integrator_settings(**plan.integrator), ""
     elif plan.composites:
         m = plan.composites[0]
         checked, given = api.given_options(m, plan.options.get(m, {}))
-        used = {k: v for k, v in given.items() if k in {opt.name for opt in numeric.options}}
-        used["tol"] = checked["tol"]
+        used = api.composite_integrator_settings(checked["tol"], given)
         what = f", for the points {m} integrates (at its tol)"
     else:
         return {"integrator": "not run (no requested output needs the numerical integration)"}
     return {"integrator": "fixed-step Dormand-Prince 5(4), three phases of Algorithm 1" + what,
             **{numeric.attr_prefix + key: numeric.option(key).to_attr(value)
-               for key, value in api.integrator_settings(**used).items()}}
+               for key, value in used.items()}}
 
 
 def _static_attrs(cfg, design, plan, chunk_size):
