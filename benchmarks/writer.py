@@ -1,10 +1,12 @@
 """CPU time and file size of the netCDF writer on a sweep's real values.
 
     python benchmarks/writer.py [--n 131072] [--config configs/sobol_1m.toml] [--repeat 3]
+        [--compress fast|small|none]
 
 Computes the configuration's design cut to its first ``n`` points in memory (``sweep.run``),
 then writes those values with :class:`sweep.store.NetCDFWriter` in the configuration's
-chunks, one core, ``repeat`` times. Prints the writer's CPU seconds per million points
+chunks, one core, ``repeat`` times, deflating as ``--compress`` says (``run.compress``;
+default the configuration's). Prints the writer's CPU seconds per million points
 (best of ``repeat``; zlib runs inside HDF5 in this thread), the file's size against the raw
 values', and each variable's compression as xarray reads it back. On the Sobol design the
 writer's CPU is taken from the kernels' cores in a run on every core (``docs/speed``).
@@ -38,15 +40,15 @@ def values(path: Path, n: int):
     ds = sweep.run(cfg, quiet=True)
     names = [k for k in ds.data_vars if ds[k].dims == ("point",)]
     return ({k: ds[k].values for k in names}, {k: ds[k].values for k in COORDS},
-            cfg.chunk_size)
+            cfg.chunk_size, cfg.compress)
 
 
-def write(path, data, points, chunk):
+def write(path, data, points, chunk, compress):
     """Write ``data`` chunk by chunk; return the CPU seconds it took."""
     n = len(next(iter(points.values())))
     layout = store.Layout(dims=("point",), shape=(n,), axes={}, point_coords=COORDS)
     t = time.process_time()
-    w = store.NetCDFWriter(path, layout, list(data))
+    w = store.NetCDFWriter(path, layout, list(data), compress=compress)
     for s in range(0, n, chunk):
         e = min(n, s + chunk)
         w.write(s, e, {k: v[s:e] for k, v in data.items()},
@@ -60,16 +62,19 @@ def main():
     p.add_argument("--n", type=int, default=131072)
     p.add_argument("--config", type=Path, default=ROOT / "configs" / "sobol_1m.toml")
     p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--compress", choices=list(sweep.registry.COMPRESSION))
     args = p.parse_args()
-    data, points, chunk = values(args.config, args.n)
+    data, points, chunk, compress = values(args.config, args.n)
+    compress = args.compress or compress
     raw = sum(v.nbytes for v in data.values()) + sum(v.nbytes for v in points.values())
     with tempfile.TemporaryDirectory(prefix="sweep-writer-") as tmp:
         out = Path(tmp) / "w.nc"
-        cpu = min(write(out, data, points, chunk) for _ in range(args.repeat))
+        cpu = min(write(out, data, points, chunk, compress) for _ in range(args.repeat))
         size = os.path.getsize(out)
         with xr.open_dataset(out) as ds:
             enc = {k: ds[k].encoding for k in list(data) + list(COORDS)}
-    print(f"writer: {cpu / args.n * 1e6:.2f} s of CPU a million points ({args.n:,} points, "
+    print(f"writer, compress = {compress!r}: {cpu / args.n * 1e6:.2f} s of CPU a million "
+          f"points ({args.n:,} points, "
           f"chunks of {chunk:,}); file {size / 1e6:.2f} MB of {raw / 1e6:.2f} MB raw")
     for k, e in enc.items():
         how = ("deflate" + (" + shuffle" if e.get("shuffle") else "")) if e.get("zlib") \

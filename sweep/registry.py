@@ -43,7 +43,8 @@ __all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "
            "unregister_method", "register_field", "unregister_field", "method",
            "approximations", "composites", "method_fields", "integrator_fields",
            "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX", "DEVICES",
-           "MAX_STEP_BUDGET", "misses_tol", "MISSED"]
+           "MAX_STEP_BUDGET", "misses_tol", "MISSED", "COMPRESSION",
+           "DEFAULT_COMPRESSION"]
 
 #: The report every equation number refers to.
 REPORT = ("A. Chatterjee, G. James, B. Brogliato, Approximate analytical coefficient of "
@@ -506,6 +507,20 @@ class Method:
 
 #: Where the numerical integration can run (the ``device`` option).
 DEVICES = ("cpu", "cuda")
+
+#: How an output file's computed variables are stored (``run.compress``): for each choice,
+#: the least fraction of a variable's bytes that deflate (zlib level 1, with HDF5's shuffle
+#: filter where that is smaller) must save on a trial of its first chunk for the variable
+#: to be deflated; None stores every variable as computed. Deflate costs the one writer
+#: thread about 90 ms of CPU a million float64 values that it halves, and about a tenth of
+#: that where it saves more than 60%. "fast" deflates only the latter: flags, counts and
+#: smooth coordinates (the Sobol design: 112 MB a million points, 0.4 s of the writer's
+#: CPU). "small" also deflates the e and error fields that the sticking beads' exact
+#: zeros halve (76 MB, 1.0 s: a tenth of the kernels' CPU on one core, taken from them
+#: when every core computes).
+COMPRESSION = {"fast": 0.6, "small": 0.35, "none": None}
+#: The choice of a configuration that names none.
+DEFAULT_COMPRESSION = "fast"
 
 # n_steps (FIELDS, int32) exceeds max_steps by a few event-refinement steps at most: the
 # bound keeps it exact, far from 2**31.

@@ -250,10 +250,12 @@ def test_hp_audit_script_finds_no_violation_on_a_small_draw():
 
 
 def test_writer_script_writes_the_sobol_values_and_names_each_choice():
-    head, *rows = _script_lines("writer.py", "--n", "2048", "--repeat", "1")
+    head, *rows = _script_lines("writer.py", "--n", "2048", "--repeat", "1",
+                                "--compress", "small")
     assert "s of CPU a million points" in head and "MB raw" in head, head
+    assert "compress = 'small'" in head, head
     size, raw = (float(x.split(" MB")[0]) for x in head.split("file ")[1].split(" of "))
-    assert 0 < size < raw, head                  # the flags and coordinates deflate
+    assert 0 < size < raw, head                  # the e fields, flags and coordinates deflate
     how = dict(r.split(None, 1) for r in rows)
     assert {"e_numeric", "alpha", "gtilde", "status"} <= set(how)
     assert set(how.values()) <= {"stored", "deflate", "deflate + shuffle"}

@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sweep import registry
 from sweep.sweeps import config
 from sweep.sweeps.config import ConfigError
 
@@ -113,8 +114,10 @@ chunk_size = 100
     assert cfg.method_options("ord2_approx") == {"n": 11}
     assert cfg.method_options("ord1") == {}
     assert cfg.chunk_size == 100
-    assert cfg.compress is True
-    assert config.loads(GRID + "[run]\ncompress = false").compress is False
+    assert cfg.compress == registry.DEFAULT_COMPRESSION == "fast"
+    for given, choice in [("false", "none"), ("true", "small"), ('"small"', "small"),
+                          ('"none"', "none"), ('"fast"', "fast")]:
+        assert config.loads(GRID + f"[run]\ncompress = {given}").compress == choice
 
 
 def _err(text):
@@ -216,7 +219,8 @@ def test_doe_needs_a_sampled_axis_and_lhs_size_limit():
     ("[options.ord2_approx]\nn = 21", ["options.ord2_approx", "does not compute", "ord1"]),
     ("[run]\nchunk_size = 0", ["run.chunk_size", "from 1 to", "0"]),
     ("[run]\nchunk_size = 9223372036854775808", ["run.chunk_size", "9223372036854775808"]),
-    ("[run]\ncompress = 1", ["run.compress", "true or false", "1"]),
+    ("[run]\ncompress = 1", ["run.compress", '"fast", "small", "none"', "1"]),
+    ('[run]\ncompress = "zip"', ["run.compress", '(or true: "small", false: "none")', "zip"]),
     ("[run]\ncompres = false", ["run.compres", "did you mean 'compress'"]),
 ])
 def test_other_table_errors(extra, expected):

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from sweep import store
+from sweep import registry, store
 from sweep.model import Status
 
 VARIABLES = ("e_numeric", "e_ord1", "sticks", "t_f", "u_max", "n_steps", "status",
@@ -41,8 +41,9 @@ def test_flat_blocks_cover_a_flat_range_exactly(shape):
             assert seen == list(range(start, stop))
 
 
-def write_dataset(path, layout, data, chunks, points=None, attrs=None):
-    w = store.NetCDFWriter(path, layout, VARIABLES, attrs or {"Conventions": "CF-1.8"})
+def write_dataset(path, layout, data, chunks, points=None, attrs=None, compress="fast"):
+    w = store.NetCDFWriter(path, layout, VARIABLES, attrs or {"Conventions": "CF-1.8"},
+                           compress=compress)
     for s, e in chunks:
         pts = None if points is None else {k: v[s:e] for k, v in points.items()}
         w.write(s, e, {k: v[s:e] for k, v in data.items()}, pts)
@@ -114,15 +115,25 @@ def test_point_dataset_has_parameters_as_coordinates(tmp_path):
     w.close()
 
 
-def test_each_variable_is_compressed_only_where_deflate_saves_bytes(tmp_path):
+#: Which variables of test_each_variable_is_deflated_only_where_it_saves_its_share each
+#: choice deflates, by the share of bytes that zlib level 1 saves on them (measured apart:
+#: random bits ~0, a quarter of exact zeros ~0.24, half ~0.46, 90% ~0.87, the rest > 0.75).
+DEFLATED = {"fast": {"u_max", "e_ord1", "n_steps", "sticks", "status"},
+            "small": {"u_max", "e_ord1", "n_steps", "sticks", "status", "e_ord2_approx"},
+            "none": set()}
+
+
+@pytest.mark.parametrize("compress", list(DEFLATED))
+def test_each_variable_is_deflated_only_where_it_saves_its_share(tmp_path, compress):
+    assert set(DEFLATED) == set(registry.COMPRESSION)
     n = 20000
     rng = np.random.default_rng(2)
     sparse = np.where(rng.random(n) < 0.9, 0.0, rng.random(n))    # e of sticking points
     data = {"e_numeric": rng.random(n),                           # random bits: incompressible
             "u_max": np.linspace(0.1, 0.2, n),                    # smooth: shared high bytes
             "e_ord1": sparse,
-            # a quarter of exact zeros: deflate would save ~1/4, under MIN_DEFLATE_SAVING
             "error_ord1": np.where(rng.random(n) < 0.25, 0.0, rng.random(n)),
+            "e_ord2_approx": np.where(rng.random(n) < 0.5, 0.0, rng.random(n)),
             "t_f": rng.random(n) * 5,
             "n_steps": rng.integers(0, 100, n, dtype=np.int32),   # small counts
             "sticks": (sparse == 0).astype(np.int8), "status": np.zeros(n, np.int8)}
@@ -130,29 +141,42 @@ def test_each_variable_is_compressed_only_where_deflate_saves_bytes(tmp_path):
                           point_coords=("alpha", "beta", "gamma", "gtilde"))
     points = {k: np.full(n, 1.5) for k in layout.point_coords}
     path = tmp_path / "doe.nc"
-    write_dataset(path, layout, data, [(0, 7000), (7000, n)], points)
+    w = store.NetCDFWriter(path, layout, list(data), compress=compress)
+    for s, e in [(0, 7000), (7000, n)]:
+        w.write(s, e, {k: v[s:e] for k, v in data.items()},
+                {k: v[s:e] for k, v in points.items()})
+    w.close()
     with xr.open_dataset(path) as ds:
         for k, v in data.items():
             np.testing.assert_array_equal(ds[k].values, v)
         enc = {k: ds[k].encoding for k in list(data) + list(points)}
-    assert not enc["e_numeric"]["zlib"] and not enc["t_f"]["zlib"]
-    assert not enc["error_ord1"]["zlib"]
-    for k in ("u_max", "e_ord1", "n_steps", "sticks", "status", *points):
-        assert enc[k]["zlib"], k
-    assert enc["u_max"]["shuffle"] and enc["alpha"]["shuffle"]
+    deflated = DEFLATED[compress] | (set(points) if compress != "none" else set())
+    assert {k for k, e in enc.items() if e["zlib"]} == deflated
+    assert enc["u_max"]["shuffle"] == (compress != "none")
     assert all(e["fletcher32"] for e in enc.values())
-    raw = sum(v.nbytes for v in data.values()) + 4 * 8 * n
-    # the incompressible ones stored as they are, the rest far smaller
-    assert path.stat().st_size < 3 * 8 * n + 0.5 * (raw - 3 * 8 * n)
+    nbytes = {**{k: v.nbytes for k, v in data.items()}, **{k: 8 * n for k in points}}
+    shrunk = sum(b for k, b in nbytes.items() if k in deflated)
+    # the others stored as they are, the deflated ones to 54% of their bytes at most; HDF5's
+    # metadata and the attributes take about 10 kB a variable
+    assert path.stat().st_size < sum(nbytes.values()) - shrunk + 0.6 * shrunk + 13 * 16384
+
+
+def test_an_unknown_compression_is_refused(tmp_path):
+    layout = store.Layout(dims=("point",), shape=(4,), axes={},
+                          point_coords=("alpha", "beta", "gamma", "gtilde"))
+    with pytest.raises(ValueError, match="compress must be one of fast, small, none, got 'zip'"):
+        store.NetCDFWriter(tmp_path / "x.nc", layout, ["e_ord1"], compress="zip")
 
 
 def test_too_few_values_to_judge_by_keep_deflate_with_shuffle():
     rng = np.random.default_rng(3)
     few = rng.random(store.netcdf.TRIAL_MIN_BYTES // 8 - 1)     # incompressible, but few
-    assert store.netcdf.deflate_filters(few) == {"zlib": True, "complevel": 1,
-                                                 "shuffle": True}
-    assert not store.netcdf.deflate_filters(rng.random(4096))["zlib"]
-    assert store.netcdf.deflate_filters(np.zeros(0, np.int8))["shuffle"] is False
+    fast = registry.COMPRESSION["fast"]
+    assert store.netcdf.deflate_filters(few, fast) == {"zlib": True, "complevel": 1,
+                                                       "shuffle": True}
+    assert not store.netcdf.deflate_filters(rng.random(4096), fast)["zlib"]
+    assert store.netcdf.deflate_filters(np.zeros(0, np.int8), fast)["shuffle"] is False
+    assert not store.netcdf.deflate_filters(few, None)["zlib"]
 
 
 def test_a_file_no_chunk_reached_still_holds_every_variable(tmp_path):

@@ -17,8 +17,8 @@ properties on ``material`` (indexed 0..n-1) and their names the auxiliary coordi
 What the file holds (variables, attributes as stored, the arrays of each chunk) comes from
 :mod:`sweep.store.schema`, shared with the in-memory writer.
 
-May import: numpy, netCDF4 and the store's own :mod:`~sweep.store.layout` and
-:mod:`~sweep.store.schema`. Nothing of numba, the kernels or any floor above the store.
+May import: numpy, netCDF4, :mod:`sweep.registry` and the store's own
+:mod:`~sweep.store.layout` and :mod:`~sweep.store.schema`. Nothing of numba, the kernels or any floor above the store.
 """
 from __future__ import annotations
 
@@ -31,6 +31,7 @@ from typing import Any
 import netCDF4
 import numpy as np
 
+from sweep import registry
 from sweep.store.layout import Layout, flat_blocks
 from sweep.store.schema import (Variable, cast_exactly, chunk_values, dataset_variables,
                                 stored_attr)
@@ -56,16 +57,6 @@ CHECKSUM = True
 #: zlib level: 1 is several times faster than the default 4 at a nearly equal ratio on
 #: these (mostly incompressible float64) data; the shuffle filter does most of the gain.
 COMPLEVEL = 1
-#: Deflate is kept for a variable only where it saves at least this fraction of the bytes.
-#: It costs ~10-20 ms of a core per 512 kB storage chunk of float64, taken from the
-#: kernels' cores when every core computes, and the one writer thread bounds a run on many
-#: cores (configs/sobol_1m.toml: ~0.9 s of kernels a million points on 16 cores, against
-#: 1.4 s of writer CPU with this at 0.15). Scattered points' times, u_max, gamma and the
-#: first-order e and its error (random low-order bits, few exact zeros) save only 12-31%.
-#: At 0.35 the Sobol design's writer takes 1.03 s of CPU a million points instead of 1.37,
-#: for a file 9% larger (19.5 MB instead of 17.9 for 262,144 points; `python
-#: benchmarks/writer.py --n 262144`): e_ord1, error_ord1 and gamma are stored as they are.
-MIN_DEFLATE_SAVING = 0.35
 #: Bytes of a variable's first chunk compressed on trial, in TRIAL_PIECES pieces spread
 #: over it (a grid's first points may all lie in one corner of the parameter space).
 TRIAL_BYTES = 2 ** 15
@@ -78,13 +69,13 @@ TRIAL_MIN_BYTES = 2 ** 12
 STORED = {"zlib": False, "shuffle": False}
 
 
-def deflate_filters(values: np.ndarray) -> dict:
+def deflate_filters(values: np.ndarray, min_saving: float | None) -> dict:
     """createVariable's compression keywords for a variable holding data like ``values``.
 
     Deflate (level :data:`COMPLEVEL`) with HDF5's shuffle filter or without it, whichever
     compresses a trial of :data:`TRIAL_BYTES` of ``values`` smaller, or no compression
-    where neither saves :data:`MIN_DEFLATE_SAVING` of those bytes; with shuffle where
-    ``values`` hold less than :data:`TRIAL_MIN_BYTES`. Shuffle groups the
+    where neither saves ``min_saving`` of those bytes (or ``min_saving`` is None); with
+    shuffle where ``values`` hold less than :data:`TRIAL_MIN_BYTES`. Shuffle groups the
     bytes of equal significance (it wins on smooth coordinates and counts); without it,
     runs of exact zeros (the e of sticking points) compress better.
 
@@ -92,12 +83,17 @@ def deflate_filters(values: np.ndarray) -> dict:
     ----------
     values : ndarray
         The variable's values in a first chunk (any shape; read in C order).
+    min_saving : float or None
+        Least fraction of the trial's bytes that deflate must save
+        (:data:`sweep.registry.COMPRESSION`); None: stored as computed.
 
     Returns
     -------
     dict
         ``zlib``, ``shuffle`` and, with zlib, ``complevel``.
     """
+    if min_saving is None:
+        return dict(STORED)
     flat = np.ascontiguousarray(values).reshape(-1)
     size = flat.dtype.itemsize
     piece = max(1, TRIAL_BYTES // size // TRIAL_PIECES)
@@ -109,7 +105,7 @@ def deflate_filters(values: np.ndarray) -> dict:
         return {"zlib": True, "complevel": COMPLEVEL, "shuffle": size > 1}
     plain = len(zlib.compress(raw.tobytes(), COMPLEVEL))
     shuffled = len(zlib.compress(raw.reshape(-1, size).T.tobytes(), COMPLEVEL))
-    if min(plain, shuffled) > (1 - MIN_DEFLATE_SAVING) * raw.size:
+    if min(plain, shuffled) > (1 - min_saving) * raw.size:
         return dict(STORED)
     return {"zlib": True, "complevel": COMPLEVEL, "shuffle": shuffled < plain}
 
@@ -138,20 +134,23 @@ class NetCDFWriter:
         Names of the stored variables (see :func:`sweep.store.metadata.variable_spec`).
     attrs : dict
         Global attributes known at the start (more can be set before :meth:`close`).
-    compress : bool
-        Deflate each computed variable where a trial on its first chunk says it pays
-        (:func:`deflate_filters`); False: every variable stored as computed. The zlib work
-        runs in the writing thread: about a second of a core a million points of
-        ``configs/sobol_1m.toml``, which bounds a run on many cores
-        (:data:`MIN_DEFLATE_SAVING`).
+    compress : str
+        A choice of :data:`sweep.registry.COMPRESSION`: deflate each computed variable
+        where a trial on its first chunk saves that choice's share of its bytes
+        (:func:`deflate_filters`); "none": every variable stored as computed. The zlib
+        work runs in the writing thread, which bounds a run on many cores.
     """
 
     def __init__(self, path: str | os.PathLike, layout: Layout, variables: Sequence[str],
-                 attrs: Mapping[str, Any] | None = None, compress: bool = True) -> None:
+                 attrs: Mapping[str, Any] | None = None,
+                 compress: str = registry.DEFAULT_COMPRESSION) -> None:
+        if compress not in registry.COMPRESSION:
+            raise ValueError(f"compress must be one of {', '.join(registry.COMPRESSION)}, "
+                             f"got {compress!r}")
         self.path = Path(path)
         self.layout = layout
         self.variables = tuple(variables)
-        self.compress = compress
+        self.min_saving = registry.COMPRESSION[compress]
         # netCDF reports any failure to create a file as EACCES, "Permission denied" (no
         # free inode included): create it here, where the OSError carries the system's own
         # errno and the file's name; netCDF then overwrites the empty file.
@@ -185,7 +184,7 @@ class NetCDFWriter:
         deferred, self._deferred = self._deferred, []
         for var in deferred:
             sample = values.get(var.name, np.empty(0, var.dtype))
-            filters = deflate_filters(sample) if self.compress else dict(STORED)
+            filters = deflate_filters(sample, self.min_saving)
             self._create(var, self._chunks, filters)
 
     def _constant(self, var: Variable) -> None:

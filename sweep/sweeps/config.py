@@ -72,8 +72,10 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
 
     [run]
     chunk_size = 131072            # points per chunk (resume and progress granularity)
-    compress = true                # deflate each computed variable where it pays; false:
-                                   # stored as computed (a larger file, no writer CPU)
+    compress = "fast"              # deflate the variables that shrink by 60% or more (flags,
+                                   # counts, smooth coordinates); "small": also those that
+                                   # shrink by 35% (e and error fields: a third smaller file
+                                   # for ~1 s of writer CPU a million points); "none"
 
 Methods, their options, output fields and parameter domains are read from
 :mod:`sweep.registry` when a configuration is parsed, so a method registered there is
@@ -154,6 +156,21 @@ def _is_int(v):
 #: The chunk sizes a run accepts (``run.chunk_size``, ``run(chunk_size=)``), as its messages
 #: say it.
 CHUNK_SIZE_RULE = f"an integer from 1 to {limits.MAX_CHUNK_SIZE:,}"
+
+
+#: ``run.compress`` as TOML booleans: true keeps the meaning it had before the choices were
+#: named (deflate every variable where it saves 35%), false stores all as computed.
+_COMPRESSION_ALIASES = {True: "small", False: "none"}
+_COMPRESSION_RULE = (", ".join(f'"{c}"' for c in registry.COMPRESSION)
+                    + ' (or true: "small", false: "none")')
+
+
+def _compression(value: Any) -> str | None:
+    """A ``run.compress`` value's choice of :data:`sweep.registry.COMPRESSION`; None for a
+    value that names none."""
+    if isinstance(value, bool):
+        return _COMPRESSION_ALIASES[value]
+    return value if isinstance(value, str) and value in registry.COMPRESSION else None
 
 
 def is_chunk_size(value: Any) -> bool:
@@ -955,9 +972,10 @@ class Config:
     sha256 : str
         Hash of the canonical (parsed, key-sorted) configuration: comments and formatting do
         not change it, any value does. Resume compares it.
-    compress : bool
-        ``run.compress``: whether the file's computed variables are deflated where it pays
-        (:func:`sweep.store.netcdf.deflate_filters`) or stored as computed.
+    compress : str
+        ``run.compress``: a choice of :data:`sweep.registry.COMPRESSION`, how much a
+        computed variable's deflate must save for the file to store it deflated
+        (:func:`sweep.store.netcdf.deflate_filters`), or "none": stored as computed.
     """
 
     text: str
@@ -970,7 +988,7 @@ class Config:
     options: dict
     chunk_size: int
     sha256: str
-    compress: bool = True
+    compress: str = registry.DEFAULT_COMPRESSION
 
     @property
     def size(self):
@@ -1015,7 +1033,8 @@ def loads(text, source=""):
     _check_integrator_used(integrator_tab, integrator, outputs, options)
     run = root.table("run")
     chunk_size = run.get("chunk_size", is_chunk_size, CHUNK_SIZE_RULE, DEFAULT_CHUNK_SIZE)
-    compress = run.get("compress", lambda v: isinstance(v, bool), "true or false", True)
+    compress = _compression(run.get("compress", lambda v: _compression(v) is not None,
+                                    _COMPRESSION_RULE, registry.DEFAULT_COMPRESSION))
     run.finish()
     root.finish()
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)

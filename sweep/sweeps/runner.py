@@ -1023,18 +1023,20 @@ WRITER_HINT_SECONDS = 1.0
 
 def _say_if_writer_bound(job):
     """Name ``run.compress`` where the chunks waited long for a compressing writer: its
-    zlib runs in one thread, however many cores compute (about a second of a core a
-    million points of configs/sobol_1m.toml). Not after a resume, whose copied chunks
-    wait for the writer by nature (and a changed configuration would not resume)."""
+    zlib runs in one thread, however many cores compute (registry.COMPRESSION). Not after
+    a resume, whose copied chunks wait for the writer by nature (and a changed
+    configuration would not resume)."""
     result = job.result
     waited = result.writer_wait_seconds
-    if not (job.cfg.compress and not result.resumed_chunks and waited >= WRITER_HINT_SECONDS
+    if not (job.cfg.compress != "none" and not result.resumed_chunks
+            and waited >= WRITER_HINT_SECONDS
             and waited > WRITER_HINT_SHARE * result.wall_seconds):
         return
+    lighter = '"fast" or "none"' if job.cfg.compress == "small" else '"none"'
     job.log(f"the chunks waited {result.writer_wait_seconds:.1f} s of "
             f"{result.wall_seconds:.1f} s for the writer, whose compression runs in one "
-            "thread: compress = false in the configuration's [run] table stores the "
-            "variables as computed (a larger file, written faster)")
+            f"thread: compress = {lighter} in the configuration's [run] table deflates "
+            "less (a larger file, written faster)")
 
 
 def _applicable(plan, counts):
