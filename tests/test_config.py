@@ -1,5 +1,7 @@
 """Configuration parsing and validation (sweep.sweeps.config)."""
 import math
+import re
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -484,3 +486,22 @@ def test_many_exponent_pairs_are_judged_without_listing_them(e):
     finally:
         tracemalloc.stop()
     assert peak < 50e6, peak        # the axes: 2 x 3,000 values; 9,000,000 pairs are not
+
+
+def _layout_variants():
+    """The annotated layout of sweep.sweeps.config's docstring, one text per [design]."""
+    doc = config.__doc__
+    block = doc[doc.index("Layout of a configuration file"):doc.index("Methods, their options")]
+    text = textwrap.dedent(block.split("::", 1)[1])
+    head, *designs = re.split(r"^(?=\[design\])", text, flags=re.M)
+    *designs, last = designs
+    last_design, rest = last.split("\n[outputs]", 1)
+    return [head + d + "\n[outputs]" + rest for d in [*designs, last_design]]
+
+
+@pytest.mark.parametrize("kind", ["grid", "doe", "scene"])
+def test_the_annotated_layout_parses_as_written(kind):
+    texts = {config.loads(t).design.kind: t for t in _layout_variants()}
+    cfg = config.loads(texts[kind])
+    assert cfg.compress == "fast" and cfg.chunk_size == 131072
+    assert {"numeric", "ord1", "ord2_approx", "auto"} <= set(cfg.outputs.methods)

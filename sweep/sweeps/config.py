@@ -27,6 +27,7 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     seed = 0
     alpha = {min = 1.0, max = 3.0}
     gamma = {min = 1e-4, max = 1.0, scale = "log"}                 # log-uniform
+    gtilde = {min = 0.0, max = 10.0}                                # uniform
     beta = 1.5                     # a number fixes the axis (not sampled)
 
     [design]                       # ... or a physical scene (SI units), mapped to
@@ -52,8 +53,9 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     # or {model = "tsuji", e = 0.9} (law "tti") or {model = "kuwabara_kono", eta1 = .., eta2 = ..}
 
     [outputs]
-    e = ["numeric", "ord1"]        # or "all": every method defined on the whole design (sp:
-                                   # alpha = beta = 1.5 only) but "auto"; variables e_<method>
+    e = ["numeric", "ord1", "ord2_approx", "auto"]   # or "all": every method defined on
+                                   # the whole design (sp: alpha = beta = 1.5 only) but
+                                   # "auto"; variables e_<method>
     fields = ["status", "error_ord1"]   # or "all": sweep.registry.integrator_fields() (e_err
                                         # too), error_<m> for every approximation in e
 
@@ -64,7 +66,8 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     max_steps = 1000000
     device = "cpu"                 # or "cuda": one CUDA GPU (pip install 'sweep[cuda]')
 
-    [options.ord2_approx]          # per-method options passed to sweep.api.cor
+    [options.ord2_approx]          # per-method options passed to sweep.api.cor (only for a
+                                   # method of outputs.e or of an error_ field)
     n = 21
 
     [options.auto]                 # e = ["auto"]: the cheapest method within tol per point
