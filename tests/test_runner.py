@@ -518,3 +518,12 @@ def test_an_output_that_is_the_configuration_is_refused(tmp_path, monkeypatch):
         with pytest.raises(runner.RunError, match="is the configuration file itself"):
             runner.run(cfg, output, restart=True, quiet=True)
     assert cfg.read_text() == CAVEAT_GRID and sorted(tmp_path.iterdir()) == [cfg]
+
+
+def test_the_final_line_says_how_long_the_kernels_took_to_load(tmp_path, capsys):
+    # Its rate counts the whole call, the progress line's the chunks alone: it says why.
+    res = run(DOE, tmp_path / "out.nc", quiet=False)
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert last.startswith(f"wrote {tmp_path / 'out.nc'}: "), last
+    assert (f" s ({res.compile_seconds:.1f} s of it loading or compiling the kernels), "
+            in last), last

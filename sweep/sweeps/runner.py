@@ -1008,8 +1008,12 @@ def _report(job, t_start):
     result = job.result
     result.wall_seconds = time.perf_counter() - t_start
     what = f"wrote {job.output}" if job.output is not None else "computed in memory"
+    # The progress line's rate counts the chunks alone: say what this one counts besides.
+    loading = ("" if result.compile_seconds is None else
+               f" ({result.compile_seconds:.1f} s of it loading or compiling the kernels)")
     job.log(f"{what}: {count(job.design.size, 'point')} ({result.computed_points:,} "
-            f"computed) in {result.wall_seconds:.1f} s, {rate(result.points_per_second)}")
+            f"computed) in {result.wall_seconds:.1f} s{loading}, "
+            f"{rate(result.points_per_second)}")
     _say_if_writer_bound(job)
     _warn_caveats(job)
     return result
