@@ -190,7 +190,7 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
 
 
 #: Why I(g~), Q(g~) of Prop. 2 have no value at a valid point (:func:`coefficients`).
-_IQ_RANGE = "gtilde is out of the range of I, Q (theta of (43) underflows)"
+_IQ_RANGE = "gtilde is out of the range of I, Q (theta of (43) underflows or I overflows)"
 #: Methods whose e needs I, Q (and how they are computed): past that range they give none.
 _IQ_METHODS = {"ord2_numint": "numint", "ord2_approx": "approx"}
 
@@ -392,7 +392,7 @@ def coefficients(alpha: Any, beta: Any, gtilde: Any, method: str = "numint",
     alpha, beta, gtilde : array_like
         Exponents [1] (>= 1) and scaled load [1] (>= 0), broadcast together.
     method : {"numint", "approx"}
-        Gauss quadrature (relative error ~1e-15) or the report's Chebyshev-Beta
+        Gauss quadrature (relative error ~1e-14) or the report's Chebyshev-Beta
         approximation (47)-(53) of odd order ``n`` (~1e-3).
     n : int, default 21
 

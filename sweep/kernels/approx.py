@@ -20,7 +20,7 @@ approximate CoR ``e`` in [0, 1]:
         e_s = max(1 - b I gamma + b^2 I (Q - I/2) gamma^2, 0)
         e   = min(sqrt(max(e^2, 0)), e_s)
 
-    with ``I(g~)``, ``Q(g~)`` by quadrature (:func:`sweep.kernels.special.iq_quadrature`, ~1e-15) or
+    with ``I(g~)``, ``Q(g~)`` by quadrature (:func:`sweep.kernels.special.iq_quadrature`, ~1e-14) or
     by the report's Chebyshev-Beta approximation of order ``n`` (Prop. 3-4, (43)-(53),
     :func:`sweep.kernels.special.iq_chebyshev`). Clipped at 1: both e^2 and e_s exceed 1 once the
     gamma^2 term wins (gamma of order 1, outside the expansion's range; SPEC section 7).
@@ -28,7 +28,16 @@ approximate CoR ``e`` in [0, 1]:
 All methods return status ``Status.OK`` for valid points; points with alpha < 1, beta < 1,
 gamma < 0, g~ < 0, a non-finite value, or outside the method's domain (``"sp"`` away from
 KK; ``"ord2_*"`` at g~ so large that ``theta`` of (43) underflows or I overflows: beyond
-~1e60 for alpha = 1, beta = 4, ~1e100 for KK) get ``e = NaN`` and ``Status.INVALID``.
+~1e61 for alpha = 1, beta = 4, ~1e149 for the linear law, ~1e167 for KK) get ``e = NaN``
+and ``Status.INVALID``.
+
+Checked against an independent mpmath implementation of the report's formulas (2026-12-07):
+within 1e-14 relative for alpha, beta in [1, 10], gamma 1e-8..10, g~ = 0 or 1e-6..1e6, n
+= 1..619. Past alpha, beta ~ 10 no accuracy is claimed: the quadrature of I, Q and the
+Chebyshev-Beta moments lose digits (relative 1e-11 at alpha = 20, 1e-5 at alpha = 200),
+``"ord2_*"`` give NaN from alpha + beta ~ 310, and C0, C (22)-(23) overflow to NaN at
+beta / alpha in the thousands; so do ``"ord1"`` and ``"sp"`` where gamma g~ C1 overflows
+(g~ ~ 1e308).
 
 The kernels are compiled lazily (first call) with no fastmath flag but contraction into
 fused multiply-adds (:data:`sweep.kernels._jit.FLAGS`), so NaN checks work and results are

@@ -7,7 +7,7 @@ for tests). All quantities are dimensionless ("1").
   ``ln |Gamma|`` of a complex argument (the kappa = 0 duration, docs/creep.md);
 - :func:`gtilde_of_theta`, :func:`theta_of_gtilde` -- the map (43) and its inverse;
 - :func:`jm_quadrature`, :func:`iq_quadrature` -- ``J, M`` of (47) and ``I, Q`` of Prop. 2
-  by Gauss quadrature, to about 1e-15 relative;
+  by Gauss quadrature, to about 1e-14 relative (alpha, beta <= 10);
 - :func:`jm_chebyshev`, :func:`iq_chebyshev` -- the report's Chebyshev-Beta approximation
   (Prop. 3-4, eqs. 48-53), evaluated stably (below);
 - :func:`iq_at_zero` (39), (40), :func:`first_order_constants` (22),
@@ -406,7 +406,9 @@ def iq_quadrature(alpha, beta, gtilde):
         Q =   int_0^{u_M} [1 + 2(g~ u - u^(a+1)/(a+1))]^(-1/2) u^(b-1) du
 
     (the report's (41), (42) print ``g~`` where ``g~ u`` is meant, SPEC section 6). Relative
-    error ~1e-15 for alpha, beta in [1, 4], g~ in [0, 1e8]; NaN beyond the range of theta.
+    error ~1e-14 for alpha, beta in [1, 10], g~ in [0, 1e8] (4e-14 at g~ = 1e120); it
+    grows past alpha, beta ~ 10 (1e-11 at alpha = 20, 1e-5 at 200); NaN beyond the range of
+    theta, and from alpha + beta ~ 310.
     """
     theta = theta_of_gtilde(alpha, gtilde)
     if not (theta > 0.0):
@@ -595,7 +597,7 @@ def jm_chebyshev(alpha, beta, theta, n, logx, cosjk, work):
     to 201 against the recurrence in 50- to 230-digit arithmetic, tests/test_chebyshev.py).
 
     Exact at theta = 0 and 1 (h = 1); in between the relative error at n = 21 is up to ~1e-3
-    for J and ~7e-3 for M (alpha = 3/2, beta in [1, 4]; the interpolation error of h).
+    for J and ~8.5e-3 for M (alpha = 3/2, beta in [1, 4]; the interpolation error of h).
 
     Parameters
     ----------
