@@ -170,6 +170,20 @@ def test_large_gtilde_where_the_load_power_alone_overflows():
     assert e[2] == e[3] == 1.0 and e[4] == 0.0 and 0 < 1 - e[0] < 1e-12
 
 
+@pytest.mark.parametrize("method", ["ord1", "sp"])
+def test_first_order_where_the_load_term_alone_overflows(method):
+    # g~ C1 = inf while gamma g~ C1 is small (a subnormal gamma) or 0 (gamma = 0): the kernel
+    # gave e = 0 with status OK, and NaN / INVALID at gamma = 0. Reference: (22) with the
+    # report's KK constants C0 = 1.7301733, C1 = 3 (SPEC; sp's gamma^2 term is below 1e-600).
+    gamma = np.array([0.0, 1e-310, 1e-309, 1e-300])
+    gt = np.array([1e308, 1e308, 1.5e308, 1e308])
+    want = np.maximum(1 - 1.7301733 * gamma - 3.0 * gamma * gt, 0)
+    assert want[1] == pytest.approx(0.97) and want[3] == 0.0
+    e, status = sweep.cor_with_status(*KK, gamma, gt, method=method)
+    assert list(status) == [Status.OK] * 4
+    np.testing.assert_allclose(e, want, rtol=1e-12, atol=0)
+
+
 @pytest.mark.parametrize("alpha, beta", [KK, (1.0, 1.0), (1.5, 1.0), (1.5, 2.5)])
 def test_large_gtilde_and_ord2_agree_at_large_load(alpha, beta):
     c, r = sweep.large_gtilde_coefficient(alpha, beta)

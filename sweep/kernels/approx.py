@@ -36,8 +36,7 @@ within 1e-14 relative for alpha, beta in [1, 10], gamma 1e-8..10, g~ = 0 or 1e-6
 = 1..619. Past alpha, beta ~ 10 no accuracy is claimed: the quadrature of I, Q and the
 Chebyshev-Beta moments lose digits (relative 1e-11 at alpha = 20, 1e-5 at alpha = 200),
 ``"ord2_*"`` give NaN from alpha + beta ~ 310, and C0, C (22)-(23) overflow to NaN at
-beta / alpha in the thousands; so do ``"ord1"`` and ``"sp"`` where gamma g~ C1 overflows
-(g~ ~ 1e308).
+beta / alpha in the thousands.
 
 The kernels are compiled lazily (first call) with no fastmath flag but contraction into
 fused multiply-adds (:data:`sweep.kernels._jit.FLAGS`), so NaN checks work and results are
@@ -155,16 +154,27 @@ def _large_term(g, gt, c, r):
 
 
 @jit(inline="always")
+def _first_term(g, gt, c0, c1):
+    """``gamma C0 + gamma g~ C1`` of (22). Where ``g~ C1`` alone overflows the sum need not
+    (a subnormal gamma: it gave e = 0 with status OK where (22) gives 0.97; gamma = 0 gave
+    0 inf = NaN): there, and only there, ``gamma g~`` first."""
+    s = gt * c1
+    if s < math.inf:
+        return g * (c0 + s)
+    return g * c0 + (g * gt) * c1
+
+
+@jit(inline="always")
 def _evaluate(code, b, g, gt, k1, k2, x1, x2):
     """``(e, good)`` of one valid point: e of the method (NaN for the coefficient codes)
     and whether the point's outputs are finite."""
     ev = math.nan
     if code == _ORD1:
-        ev = 1.0 - g * (k1 + gt * k2)
+        ev = 1.0 - _first_term(g, gt, k1, k2)
         if ev < 0.0:
             ev = 0.0
     elif code == _SP:
-        ev = _clip01(1.0 - g * (k1 + gt * k2) - g * g * SP_C2)
+        ev = _clip01(1.0 - _first_term(g, gt, k1, k2) - g * g * SP_C2)
     elif code == _LARGE:
         ev = _sqrt_plus(1.0 - _large_term(g, gt, k1, k2))
     elif code == _ORD2_NUMINT or code == _ORD2_APPROX:
