@@ -588,8 +588,26 @@ def add_report_commands(subparsers: argparse._SubParsersAction) -> argparse.Argu
 
 # --------------------------------------------------------------------------- export, example
 
+def _lookup_error_line(err):
+    """What ``sweep export`` says of its table's stated error (:meth:`Table.error`)."""
+    from sweep import _format
+
+    w, var = err["where"], err["variable"]
+    held = _format.count(err["n_points"], "held-back point")
+    line = (f"lookup ({var}, monotone PCHIP) against {var} computed directly (the method's "
+            f"own error comes on top): stated error {err['max_abs']:.3g} (at "
+            f"{w.get('material')}, v0 = {w.get('v0', 0):.4g} m/s, F = {w.get('F', 0):.4g} "
+            f"N); on {held}: max {err['held_back_max_abs']:.3g}, median "
+            f"{err['median_abs']:.3g}")
+    if err["collapse_cells"]:
+        line += (f"; {_format.count(err['collapse_cells'], 'cell')} where e falls to 0 "
+                 f"(no rebound), bounded by their largest node, {err['collapse_bound']:.3g}; "
+                 f"away from them {err['away_max_abs']:.3g}")
+    return line
+
+
 def _cmd_export(args):
-    from sweep import _format, tables
+    from sweep import tables
 
     if args.no_check and args.variable is not None:
         args.usage_error(f"argument --variable: names the variable of the lookup check, "
@@ -599,15 +617,11 @@ def _cmd_export(args):
     try:
         # The table first: a bad --variable is refused before any file is written.
         table = None if args.no_check else tables.Table(args.dataset, args.variable)
-        written = tables.export(args.dataset, out, fmt)
+        err = None if table is None else table.error()
+        written = tables.export(args.dataset, out, fmt, error=err)
         _print(f"wrote {written}")
-        if table is not None:
-            err = table.error()
-            w, held = err["where"], _format.count(err["n_points"], "held-back point")
-            _print(f"lookup ({err['variable']}, monotone PCHIP): interpolation error "
-                   f"against direct computation on {held}: max "
-                   f"{err['max_abs']:.3g} (at {w.get('material')}, v0 = {w.get('v0', 0):.4g} "
-                   f"m/s, F = {w.get('F', 0):.4g} N), median {err['median_abs']:.3g}")
+        if err is not None:
+            _print(_lookup_error_line(err))
     except BrokenPipeError:  # stdout closed, the dataset is fine: main() handles it
         raise
     except (OSError, ValueError) as exc:

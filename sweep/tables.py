@@ -19,10 +19,17 @@ its work and memory do not grow with the table (along every node, ~100 bytes a n
 query, the held-back check of a 200 x 104 table took 6 GB).
 
 :meth:`Table.error` reports the interpolation error against direct computation (the same
-method and settings as the table, at the scaled point of eq. (2)) on *held-back points*:
-points inside every cell, at the quarter, half and three-quarter marks of each axis, which
-are not in the table. That maximum is the table's stated error: an estimate measured on a
-lattice four times finer, not a proof. :func:`lookup` is the one-call form.
+method and settings as the table, at the scaled point of eq. (2): the method's own error,
+auto's tol or a closed form's, comes on top) on *held-back points*: points inside every
+cell, at the quarter, half and three-quarter marks of each axis, which are not in the
+table. That maximum is an estimate measured on a lattice four times finer, not a proof (in
+smooth end cells up to ~6% low). Where e falls to 0 inside a cell (the no-rebound speed or
+load, some corners 0, others not) e collapses like a square root that no cubic follows,
+and the held-back points can miss the collapse (the interpolant there was up to 2.9 times
+their maximum): such a cell is bounded by its largest corner instead, where e lies between
+0 and it. The stated error is the larger of the two. :func:`lookup` is the one-call form.
+Every node must hold a value: a table with a NaN node (a method undefined there) is
+refused, naming it.
 
 :func:`export` writes the table for codes that read plain files: CSV (one row per
 (material, v0, F), units in the header) or NumPy ``.npz`` (arrays on (material, v0, F)).
@@ -185,7 +192,20 @@ class Table:
                            for name in _MATERIAL_VARIABLES}
         self.g = float(ds["g"].values)
         self.options = api.recorded_settings(ds.attrs, self.method)
+        self._refuse_missing_nodes()
         self._F_pieces = self._pchip_along_F()
+
+    def _refuse_missing_nodes(self) -> None:
+        """Raise ``ValueError`` naming the first node without a value: the PCHIP of every
+        row through it would be NaN (scipy refused it unnamed)."""
+        bad = np.argwhere(~np.isfinite(self.values))
+        if bad.size:
+            i, j, k = bad[0]
+            value = float(self.values[i, j, k])
+            raise ValueError(f"{self.variable} has no value ({value!r}) at "
+                             f"material {self.materials[i]!r}, v0 = {self.v0[j]:g} m/s, F = "
+                             f"{self.F[k]:g} N: a table needs one at every node (leave that "
+                             "speed or load out of the scene, or tabulate another method)")
 
     # -- interpolation --------------------------------------------------------------------
 
@@ -327,25 +347,66 @@ class Table:
         n = len(self.materials)
         return (np.repeat(np.arange(n), vv.size), np.tile(vv, n), np.tile(ff, n))
 
+    def _cell_corners(self) -> np.ndarray:
+        """e at the corners of every cell: (corner, material, v0 cell, F cell); an axis of
+        one node has one cell, that node."""
+        e = self.values
+        v = [slice(None, -1), slice(1, None)] if self.v0.size > 1 else [slice(None)]
+        f = [slice(None, -1), slice(1, None)] if self.F.size > 1 else [slice(None)]
+        return np.stack([e[:, a, b] for a in v for b in f])
+
+    def collapse_cells(self) -> np.ndarray:
+        """Cells where e falls to 0 at some corners but not all (the no-rebound speed or
+        load inside): bool on (material, v0 cell, F cell)."""
+        c = self._cell_corners()
+        return (c.min(axis=0) == 0.0) & (c.max(axis=0) > 0.0)
+
+    def _cell_of(self, axis: str, q: np.ndarray) -> np.ndarray:
+        x = getattr(self, axis)
+        if x.size == 1:
+            return np.zeros(q.size, dtype=np.intp)
+        return _cells(self._coord(axis, x), self._coord(axis, q))[0]
+
+    def _collapse_bound(self, collapse: np.ndarray) -> tuple[float, dict]:
+        """The bound of the collapse cells, their largest corner (e lies between 0 and it
+        where it is monotone in the cell, and so does the monotone interpolant), and where:
+        the material and the cell's first v0 [m/s] and F [N]."""
+        if not collapse.any():
+            return 0.0, {}
+        top = np.where(collapse, self._cell_corners().max(axis=0), -1.0)
+        i, j, k = np.unravel_index(int(np.argmax(top)), top.shape)
+        return float(top[i, j, k]), {"material": self.materials[i], "v0": float(self.v0[j]),
+                                     "F": float(self.F[k])}
+
     def error(self) -> dict[str, Any]:
-        """Interpolation error against direct computation on the held-back points.
+        """Interpolation error against direct computation: on the held-back points, and in
+        the cells where e collapses to 0, their bound (module docstring).
 
         Returns
         -------
         dict
-            ``max_abs`` (the stated error), ``median_abs``, ``n_points``, ``where`` (the
-            material, v0 [m/s] and F [N] of the largest difference), ``variable``.
+            ``max_abs`` (the stated error: the larger of the two), ``where`` (its material,
+            v0 [m/s] and F [N]; a collapse cell's first corner), ``held_back_max_abs``,
+            ``median_abs`` and ``n_points`` (on the held-back points), ``away_max_abs``
+            (held-back points outside the collapse cells), ``collapse_cells`` (their
+            number), ``collapse_bound``, ``variable``.
         """
         idx, v, f = self.held_back_points()
         names = np.array(self.materials, dtype=object)[idx]
         d = np.abs(self(v, f, names) - self.direct(v, f, names))
         d = np.where(np.isnan(d), np.inf, d)  # an invalid point is no agreement
-        worst = int(np.argmax(d)) if d.size else 0
+        collapse = self.collapse_cells()
+        away = ~collapse[idx, self._cell_of("v0", v), self._cell_of("F", f)]
+        bound, where = self._collapse_bound(collapse)
+        held = float(d.max()) if d.size else 0.0
+        if held >= bound and d.size:
+            w = int(np.argmax(d))
+            where = {"material": str(names[w]), "v0": float(v[w]), "F": float(f[w])}
         return {"variable": self.variable, "n_points": int(d.size),
-                "max_abs": float(d.max()) if d.size else 0.0,
+                "max_abs": max(held, bound), "where": where, "held_back_max_abs": held,
                 "median_abs": float(np.median(d)) if d.size else 0.0,
-                "where": {"material": str(names[worst]), "v0": float(v[worst]),
-                          "F": float(f[worst])} if d.size else {}}
+                "away_max_abs": float(d[away].max()) if away.any() else 0.0,
+                "collapse_cells": int(collapse.sum()), "collapse_bound": bound}
 
 
 def lookup(dataset: Any, v0: Any, F: Any = None, material: Any = None,
@@ -393,20 +454,24 @@ def _write_csv(ds: Any, path: Path, variables: list[str]) -> None:
         w.writerows(_rows(ds, variables))
 
 
-def _write_npz(ds: Any, path: Path, variables: list[str]) -> None:
+def _write_npz(ds: Any, path: Path, variables: list[str], error: dict | None) -> None:
     units = {name: _unit(ds, name) for name in
              ["v0", "F", "g", *_MATERIAL_VARIABLES, *variables]}
+    # A code that interpolates as Table does needs each axis's spacing (log or linear).
+    spacing = {axis: str(ds[axis].attrs.get("spacing", "")) for axis in ("v0", "F")}
+    extra = {} if error is None else {"lookup_error": np.array(json.dumps(error))}
     # Through an open file: given a name, numpy.savez appends ".npz" to one without it.
     with open(path, "wb") as f:
         np.savez(f, material=np.array(_material_names(ds)),
                  v0=ds["v0"].values, F=ds["F"].values, g=ds["g"].values,
-                 units=np.array(json.dumps(units)),
+                 units=np.array(json.dumps(units)), spacing=np.array(json.dumps(spacing)),
+                 **extra,
                  **{n: ds[n].values for n in _MATERIAL_VARIABLES},
                  **{v: ds[v].transpose(*SCENE_DIMS).values for v in variables})
 
 
 def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
-           variables: list[str] | None = None) -> Path:
+           variables: list[str] | None = None, error: dict | None = None) -> Path:
     """Write a scene's table as CSV or NumPy ``.npz``.
 
     Parameters
@@ -421,6 +486,9 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
     variables : list of str, optional
         Per-point variables written (default: gamma, gtilde, every ``e_<method>`` and
         ``e_err`` where stored).
+    error : dict, optional
+        A table's :meth:`Table.error`, stored in the npz as the JSON ``lookup_error``
+        (the CSV has no place for it).
 
     Returns
     -------
@@ -428,8 +496,11 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
         The file written, ``path``. CSV: one row per (material, v0, F), the unit in each
         column name, written row by row (bounded memory). npz: ``material`` (the names),
         ``v0`` [m/s], ``F`` [N], each variable on (material, v0, F), the per-material
-        ``m``, ``k``, ``gamma0``, ``alpha``, ``beta``, ``g`` and a JSON ``units`` string
-        (k and gamma0 whose unit depends on the law: the rule, e.g. ``"N m^-alpha"``).
+        ``m``, ``k``, ``gamma0``, ``alpha``, ``beta``, ``g``, a JSON ``units`` string
+        (k and gamma0 whose unit depends on the law: the rule, e.g. ``"N m^-alpha"``), a
+        JSON ``spacing`` string (each axis's: ``"log"``, ``"linear"``, ``"irregular"`` or
+        ``"single"``; :class:`Table` interpolates in log v0, log F where ``"log"``) and,
+        given ``error``, ``lookup_error``.
 
     Raises
     ------
@@ -459,5 +530,8 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
                          f"{', '.join(map(str, ds.data_vars))}")
     path.parent.mkdir(parents=True, exist_ok=True)   # as sweep run makes its output's
     with naming(path):
-        (_write_csv if fmt == "csv" else _write_npz)(ds, path, variables)
+        if fmt == "csv":
+            _write_csv(ds, path, variables)
+        else:
+            _write_npz(ds, path, variables, error)
     return path

@@ -258,3 +258,63 @@ def test_export_to_a_full_disk_names_the_output(scene, capsys, fmt):
     # Audit F7: "sweep export: error: scene.nc: [Errno 28] ..." blamed the dataset read.
     assert main(["export", str(scene), fmt, "-o", "/dev/full", "--no-check"]) == 1
     assert capsys.readouterr().err == "sweep export: error: /dev/full: No space left on device\n"
+
+
+COLLAPSE = """
+title = "the no-rebound speed inside a cell"
+[design]
+kind = "scene"
+v0 = {start = 1e-4, stop = 1.0, num = 38, spacing = "log"}
+F = 0.0
+[design.materials.steel_ball]
+law = "kk"
+m = 0.154
+k = 3.6138e10
+gamma0 = 1.5237e-6
+[outputs]
+e = ["numeric"]
+"""
+
+
+def test_the_stated_error_bounds_the_collapse_at_the_no_rebound_speed(tmp_path):
+    # e rises like a square root from 0 at the no-rebound speed v_c (3.87e-4 m/s here),
+    # which falls between the held-back points of its cell: there the lookup was 2.7 times
+    # the held-back maximum, which was all the stated error was.
+    path = tmp_path / "collapse.nc"
+    runner.run(config.loads(COLLAPSE, source="collapse.toml"), path, quiet=True)
+    table = tables.Table(path)
+    err = table.error()
+    assert err["collapse_cells"] == 1
+    v0 = np.geomspace(1e-4, 1.0, 40001)
+    p = {k: v[0] for k, v in table.properties.items()}
+    gamma, gtilde = sweep.scale(p["m"], p["k"], p["gamma0"], v0, p["alpha"], p["beta"], g=9.81)
+    true = sweep.cor(p["alpha"], p["beta"], gamma, gtilde, tol=1e-10)
+    worst = np.max(np.abs(table(v0) - true))
+    assert err["held_back_max_abs"] < 0.5 * worst <= 0.5 * err["max_abs"]
+    assert err["max_abs"] == err["collapse_bound"] and err["where"]["v0"] < 3.87e-4
+    assert err["away_max_abs"] < err["held_back_max_abs"]
+
+
+def test_a_node_without_a_value_is_refused_naming_it(tmp_path, capsys):
+    text = COLLAPSE.replace('v0 = {start = 1e-4, stop = 1.0, num = 38, spacing = "log"}',
+                            "v0 = [1e-250, 1e-3, 1.0]").replace('"numeric"', '"ord2_numint"')
+    path = tmp_path / "nan.nc"
+    runner.run(config.loads(text, source="nan.toml"), path, quiet=True)   # g~ ~ 1e296 there
+    with pytest.raises(ValueError, match=r"e_ord2_numint has no value \(nan\) at material "
+                                         r"'steel_ball', v0 = 1e-250 m/s, F = 0 N"):
+        sweep.lookup(path, v0=0.5)
+    out = tmp_path / "t.npz"
+    assert main(["export", str(path), "--npz", "-o", str(out)]) == 1
+    assert "e_ord2_numint has no value" in capsys.readouterr().err and not out.exists()
+
+
+def test_the_npz_carries_the_axes_spacing_and_the_stated_error(scene, tmp_path, capsys):
+    out = tmp_path / "t.npz"
+    assert main(["export", str(scene), "--npz", "-o", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert "against e_numeric computed directly (the method's own error comes on top)" in said
+    with np.load(out, allow_pickle=False) as z:
+        assert json.loads(str(z["spacing"])) == {"v0": "log", "F": "linear"}
+        stated = json.loads(str(z["lookup_error"]))
+    assert stated == tables.Table(scene).error()          # the same floats, through JSON
+    assert f"stated error {stated['max_abs']:.3g}" in said
