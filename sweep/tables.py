@@ -293,8 +293,9 @@ class Table:
             out[sel] = _pchip_columns(x[s:s + w], y[sel].T, xq[sel])
         return out
 
-    def __call__(self, v0: Any, F: Any = None, material: Any = None) -> np.ndarray:
-        """Interpolated e [1] at impact speeds v0 [m/s] and loads F [N] (broadcast).
+    def __call__(self, v0: Any, F: Any = None, material: Any = None) -> np.ndarray | float:
+        """Interpolated e [1] at impact speeds v0 [m/s] and loads F [N] (broadcast; a float
+        where all are scalars, as :func:`sweep.cor` gives).
 
         ``F`` may be omitted when the table has one load, ``material`` when it has one
         material.
@@ -316,7 +317,7 @@ class Table:
         for start in range(0, vq.size, _BLOCK):
             block = slice(start, start + _BLOCK)
             out[block] = self._interpolate(idx[block], vq[block], fq[block])
-        return out.reshape(shape)
+        return float(out[0]) if shape == () else out.reshape(shape)
 
     # -- direct computation and the held-back check ---------------------------------------
 
@@ -410,7 +411,7 @@ class Table:
 
 
 def lookup(dataset: Any, v0: Any, F: Any = None, material: Any = None,
-           variable: str | None = None) -> np.ndarray:
+           variable: str | None = None) -> np.ndarray | float:
     """Interpolated e [1] of a scene dataset at impact speeds v0 [m/s] and loads F [N].
 
     One-call form of :class:`Table` (which also reports the interpolation error, see
@@ -430,7 +431,8 @@ def lookup(dataset: Any, v0: Any, F: Any = None, material: Any = None,
 
     Returns
     -------
-    ndarray
+    ndarray or float
+        A float where v0, F and material are all scalars.
     """
     return Table(dataset, variable)(v0, F, material)
 

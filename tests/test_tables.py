@@ -318,3 +318,11 @@ def test_the_npz_carries_the_axes_spacing_and_the_stated_error(scene, tmp_path, 
         stated = json.loads(str(z["lookup_error"]))
     assert stated == tables.Table(scene).error()          # the same floats, through JSON
     assert f"stated error {stated['max_abs']:.3g}" in said
+
+
+def test_a_scalar_query_gives_a_float_as_cor_does(scene):
+    one = sweep.lookup(scene, v0=0.3, F=0.1, material="steel")
+    assert type(one) is float
+    assert one == sweep.lookup(scene, v0=[0.3], F=[0.1], material=["steel"])[0]
+    assert sweep.lookup(scene, v0=np.float64(0.3), F=0.1, material="bead").__class__ is float
+    assert sweep.lookup(scene, v0=[0.3], F=0.1, material="bead").shape == (1,)
