@@ -57,6 +57,7 @@ import threading  # noqa: E402
 import time  # noqa: E402
 
 import numba  # noqa: E402
+import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from sweep.kernels import _parallel  # noqa: E402
@@ -69,7 +70,7 @@ def _blocks_seen(n, size, order):
     def run(lo, hi):
         with lock:
             seen.append((lo, hi))
-    _parallel.map_blocks(run, order, size, n)
+    _parallel.map_blocks(run, [(j * size, min(n, (j + 1) * size)) for j in order])
     return sorted(seen)
 
 
@@ -86,6 +87,33 @@ def test_map_blocks_runs_every_block_once_whatever_the_thread_count():
         numba.set_num_threads(before)
 
 
+@pytest.mark.parametrize("threads", [1, 2, 3])
+@pytest.mark.parametrize("n, size, smallest, seed", [
+    (65536, 1024, 256, 7), (1003, 100, 10, None), (5000, 4096, 256, 1), (300, 100, 100, 3)])
+def test_a_schedule_covers_every_point_once_and_ends_in_small_blocks(n, size, smallest, seed,
+                                                                     threads):
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+        t = numba.get_num_threads()
+        bounds = _parallel.schedule(n, size, smallest, seed)
+    finally:
+        numba.set_num_threads(before)
+    covered = np.zeros(n, dtype=int)
+    for lo, hi in bounds:
+        assert 0 <= lo < hi <= n
+        covered[lo:hi] += 1
+    assert np.all(covered == 1)
+    whole = -(-n // size)
+    if whole > 2 * t:
+        sub = max(smallest, -(-size // _parallel.TAIL_SPLIT))
+        head, tail = bounds[:whole - 2 * t], bounds[whole - 2 * t:]
+        assert all(hi - lo == size or hi == n for lo, hi in head)
+        assert all(hi - lo <= sub for lo, hi in tail) and len(tail) >= 2 * t
+    if seed is None:
+        assert [lo for lo, _ in bounds] == sorted(lo for lo, _ in bounds)
+
+
 def test_map_blocks_raises_the_first_error_once_no_block_still_runs():
     started, lock = [], threading.Lock()
 
@@ -96,7 +124,7 @@ def test_map_blocks_raises_the_first_error_once_no_block_still_runs():
             raise ValueError("block 0")
         time.sleep(0.01)
     with pytest.raises(ValueError, match="block 0"):
-        _parallel.map_blocks(run, range(200), 1, 200)
+        _parallel.map_blocks(run, [(j, j + 1) for j in range(200)])
     count = len(started)
     time.sleep(0.1)
     # Blocks not started were cancelled; none starts after the call returned.

@@ -24,8 +24,10 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import ThreadPoolExecutor, wait
 
 import numba as nb
+import numpy as np
 
-__all__ = ["parallel_allowed", "preload_tbb", "threads", "map_blocks"]
+__all__ = ["parallel_allowed", "preload_tbb", "threads", "map_blocks", "schedule",
+           "TAIL_SPLIT"]
 
 
 def preload_tbb() -> bool:
@@ -64,14 +66,38 @@ def parallel_allowed() -> bool:
     return threads() > 1 and threading.current_thread() is threading.main_thread()
 
 
-def map_blocks(run: Callable[[int, int], None], order: Iterable[int], size: int,
-               n: int) -> None:
-    """Call ``run(lo, hi)`` for the blocks ``[j size, min(n, (j + 1) size))`` with ``j`` in
-    ``order``, from :func:`threads` threads; ``run`` must release the GIL (a ``nogil``
-    kernel) for them to run at once. The first exception of a block is raised here, once
-    every block that had started is over and the others are cancelled."""
+#: The last blocks of a call (two a thread) are split in this many: a thread that drew a
+#: costly block at the end left the others idle for up to a block's time. On the Sobol
+#: design's 65,536-point chunks, 2 threads, whole blocks left 7.5-8.7% of the integrator's
+#: thread time idle and 12% of the second-order closed forms' (2026-12-07).
+TAIL_SPLIT = 4
+
+
+def schedule(n: int, size: int, smallest: int, seed: int | None = None
+             ) -> list[tuple[int, int]]:
+    """The blocks ``(lo, hi)`` of a parallel call over ``n`` points: contiguous blocks of
+    ``size`` points (each reads and writes contiguous memory), in a shuffled order where
+    ``seed`` is given (a cluster of costly points, a grid's heavily damped corner, is spread
+    over the threads), the last two a thread split in :data:`TAIL_SPLIT` parts of at least
+    ``smallest`` points. The schedule never changes a result."""
+    starts = list(range(0, n, size))
+    if seed is not None:
+        order = np.random.default_rng(seed).permutation(len(starts))
+        starts = [starts[j] for j in order]
+    bounds = [(lo, min(n, lo + size)) for lo in starts]
+    cut = max(0, len(bounds) - 2 * threads())
+    sub = max(smallest, -(-size // TAIL_SPLIT))
+    return bounds[:cut] + [(a, min(hi, a + sub)) for lo, hi in bounds[cut:]
+                           for a in range(lo, hi, sub)]
+
+
+def map_blocks(run: Callable[[int, int], None], bounds: Iterable[tuple[int, int]]) -> None:
+    """Call ``run(lo, hi)`` for the blocks ``bounds`` (:func:`schedule`), in their order,
+    from :func:`threads` threads; ``run`` must release the GIL (a ``nogil`` kernel) for
+    them to run at once. The first exception of a block is raised here, once every block
+    that had started is over and the others are cancelled."""
     pool = _pool(threads())
-    blocks = [pool.submit(run, j * size, min(n, (j + 1) * size)) for j in order]
+    blocks = [pool.submit(run, lo, hi) for lo, hi in bounds]
     try:
         for block in blocks:
             block.result()

@@ -51,7 +51,7 @@ import math
 import numpy as np
 
 from sweep.kernels._jit import cached_jit, jit
-from sweep.kernels._parallel import map_blocks, parallel_allowed, threads
+from sweep.kernels._parallel import map_blocks, parallel_allowed, schedule, threads
 from sweep.kernels.contact import in_domain
 from sweep.kernels.special import (chebyshev_tables, first_order_constants, iq_at_zero,
                                    iq_chebyshev, iq_quadrature, large_gtilde_constants)
@@ -254,7 +254,7 @@ def _run(code, alpha, beta, gamma, gtilde, n, aux=True):
     chunks = min(_CHUNKS_PER_THREAD * threads(), size // (_CHUNK_COSTLY if costly else _CHUNK))
     if chunks > 1 and parallel_allowed():
         per = -(-size // chunks)
-        map_blocks(run, range(chunks), per, size)
+        map_blocks(run, schedule(size, per, _CHUNK_COSTLY if costly else _CHUNK))
     else:
         run(0, size)
     return e, status, aux1, aux2

@@ -50,7 +50,7 @@ from typing import NamedTuple
 import numpy as np
 
 from sweep.kernels._jit import cached_jit, jit
-from sweep.kernels._parallel import map_blocks, parallel_allowed, threads
+from sweep.kernels._parallel import map_blocks, parallel_allowed, schedule, threads
 from sweep.kernels.contact import in_domain, make_law
 from sweep.kernels.lanes import N_ENDING, ending_at, march_lanes
 from sweep.kernels.march import march
@@ -639,9 +639,7 @@ def integrate_arrays(alpha, beta, gamma, gtilde, s, parallel=None):
         # grid's heavily damped corner) is spread over the threads, while each block reads
         # and writes contiguous memory. A fixed seed keeps the schedule reproducible;
         # results never depend on it.
-        size = _block_size(n, threads())
-        order = np.random.default_rng(0x5EED).permutation((n + size - 1) // size)
-        map_blocks(run, order, size, n)
+        map_blocks(run, schedule(n, _block_size(n, threads()), _BLOCK, seed=0x5EED))
     else:
         run(0, n)
     return out
