@@ -147,7 +147,8 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
     steps : float, optional
         Resolution for experts: steps per half period of the stiffest linearised motion
         (default :data:`DEFAULT_STEPS`, or from ``tol``); the error falls like
-        ``steps**-5``. A given ``steps`` is every point's resolution, with ``tol`` too.
+        ``steps**-5``. A given ``steps`` is every point's resolution, with ``tol`` too; at
+        least :data:`sweep.registry.MIN_STEPS` (8), from where ``e_err`` is calibrated.
     rest_tol : float, default 1e-8
         Rest criterion ``max(|u - u-bar|, |v|) < rest_tol`` (report, Sec. 3).
     max_steps : int, optional

@@ -43,7 +43,7 @@ __all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "
            "unregister_method", "register_field", "unregister_field", "method",
            "approximations", "composites", "method_fields", "integrator_fields",
            "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX", "DEVICES",
-           "MAX_STEP_BUDGET", "misses_tol", "MISSED", "COMPRESSION",
+           "MAX_STEP_BUDGET", "MIN_STEPS", "misses_tol", "MISSED", "COMPRESSION",
            "DEFAULT_COMPRESSION"]
 
 #: The report every equation number refers to.
@@ -522,6 +522,11 @@ COMPRESSION = {"fast": 0.6, "small": 0.35, "none": None}
 #: The choice of a configuration that names none.
 DEFAULT_COMPRESSION = "fast"
 
+#: Least resolution ``steps`` (per half period): the error model never picks less, and the
+#: error estimate ``e_err`` is calibrated from there up (below it, 2-7 steps, it was up to
+#: 39 times too small: nearly elastic points with alpha ~ 1, large beta, 2026-12-07).
+MIN_STEPS = 8
+
 # n_steps (FIELDS, int32) exceeds max_steps by a few event-refinement steps at most: the
 # bound keeps it exact, far from 2**31.
 _BUDGET_POWER = 30
@@ -535,9 +540,10 @@ _INTEGRATOR_OPTIONS = (
     Option("tol", None, lambda v: _is_number(v) and v > 0,
            "a number > 0 (the largest abs error of e wanted: the resolution comes from the "
            "integrator's calibrated error model, and points above it are refined)"),
-    Option("steps", 96.0, lambda v: _is_number(v) and 2 <= v <= MAX_STEP_BUDGET,
-           f"a number in [2, 2**{_BUDGET_POWER}] (steps per half period of the stiffest "
-           "linearised motion; a march takes about as many, and no step budget is larger)"),
+    Option("steps", 96.0, lambda v: _is_number(v) and MIN_STEPS <= v <= MAX_STEP_BUDGET,
+           f"a number in [{MIN_STEPS}, 2**{_BUDGET_POWER}] (steps per half period of the "
+           "stiffest linearised motion; a march takes about as many, and no step budget is "
+           "larger; e_err is calibrated from 8 up)"),
     # A scaled state is in units of the impact (u'(0) = 1): from rest_tol = 1 on, every
     # loaded point is "at rest" before it moves, a silent e = 0.
     Option("rest_tol", 1e-8, lambda v: _is_number(v) and 0 < v < 1,

@@ -57,7 +57,8 @@ def test_invalid_points_do_not_spoil_neighbours():
     (dict(steps=0), "steps"), (dict(steps=np.nan), "steps"), (dict(rest_tol=0.0), "rest_tol"),
     (dict(rest_tol=1.0), "rest_tol"),
     # beyond every step budget (QA: accepted, every point BUDGET_EXHAUSTED with e = 1)
-    (dict(steps=1e300), r"steps must be a number in \[2, 2\*\*30\].*got 1e\+300"),
+    (dict(steps=1e300), r"steps must be a number in \[8, 2\*\*30\].*got 1e\+300"),
+    (dict(steps=3), r"steps must be a number in \[8, 2\*\*30\].*calibrated from 8 up.*got 3"),
     (dict(steps=2 ** 30 + 1), "steps"),
     (dict(max_steps=0), "max_steps"), (dict(max_steps=2.5), "max_steps"),
 ])

@@ -206,11 +206,12 @@ def test_doe_needs_a_sampled_axis_and_lhs_size_limit():
 
 
 @pytest.mark.parametrize("extra, expected", [
-    ("[integrator]\nsteps = 1", ["integrator.steps", "[2, 2**30]", "1"]),
+    ("[integrator]\nsteps = 1", ["integrator.steps", "[8, 2**30]", "1"]),
+    ("[integrator]\nsteps = 7.5", ["integrator.steps", "e_err is calibrated from 8 up", "7.5"]),
     # QA: accepted, every point ended BUDGET_EXHAUSTED with e = 1 and the run exited 0
-    ("[integrator]\nsteps = 1e300", ["integrator.steps", "[2, 2**30]", "1e+300"]),
+    ("[integrator]\nsteps = 1e300", ["integrator.steps", "[8, 2**30]", "1e+300"]),
     ("[integrator]\nsteps = 9223372036854775807",
-     ["integrator.steps", "[2, 2**30]", "9223372036854775807"]),
+     ["integrator.steps", "[8, 2**30]", "9223372036854775807"]),
     ("[integrator]\nrest_tol = 0.0", ["integrator.rest_tol", "(0, 1)"]),
     ("[integrator]\nrest_tol = 1e300", ["integrator.rest_tol", "(0, 1)", "1e+300"]),
     ("[integrator]\nmax_steps = 10.5", ["integrator.max_steps", "10.5"]),

@@ -327,3 +327,32 @@ def test_the_first_marchs_share_is_its_formula_about_the_smallest_share():
         for rel in np.concatenate([-np.logspace(-16, -1, 40), [0.0], np.logspace(-16, -1, 40)]):
             p, q = share_and_q(alpha, beta, edge * (1 + rel) / c0, 0.0)
             assert p == max((q / stepsize.Q_REF) ** 0.2, stepsize.P_MIN), (alpha, beta, q)
+
+
+def _linear_deep_well_points(n, seed):
+    """Linear-law points decided by the deep-well law (g~ > 1e7) near its no-rebound
+    threshold: gamma placed for a target e 10^U(-9, -3) by (23), stick or rebound alike."""
+    rng = np.random.default_rng(seed)
+    c, r = sweep.large_gtilde_coefficient(1.0, 1.0)
+    gtilde = 10 ** rng.uniform(7.2, 14, n)
+    e = 10 ** rng.uniform(-9, -3, n) * rng.choice([1, 1j], n)     # 1j: just beyond it
+    return (1 - (e ** 2).real) / (2 * c * gtilde ** r), gtilde
+
+
+def test_a_deep_well_near_its_threshold_is_within_its_estimate():
+    # The loss 2 gamma C g~^r is good to its logarithm's rounding (~1e-14 in e^2 here): a
+    # rebound of e ~ 6e-8 came back a certain stick (e_err 0), a stick a rebound with e_err
+    # 4e-16. Reference: the linear law's exact solution (60 digits).
+    gamma, gtilde = _linear_deep_well_points(12, 9)
+    gamma = np.append(gamma, [4.6324839160723515e-25, 8.543088299531658e-28])
+    gtilde = np.append(gtilde, [586142356160.7988, 13649056082558.898])
+    res = sweep.integrate(1.0, 1.0, gamma, gtilde, tol=1e-8)
+    assert np.all(res.n_steps == 0)                       # decided by the law, not marched
+    old = reference._DPS
+    reference._DPS = 60
+    try:
+        ref = np.array([float(reference.linear_cor(g, x).e) for g, x in zip(gamma, gtilde)])
+    finally:
+        reference._DPS = old
+    assert np.all(np.abs(res.e - ref) <= res.e_err), np.abs(res.e - ref) / res.e_err
+    assert np.any((ref > 0) & (res.e == 0)) or np.any((ref == 0) & (res.e > 0))

@@ -26,7 +26,10 @@ integrator.
   the report's large-load law (23): ``e^2 = 1 - 2 gamma C g~^r``. The neglected terms are
   relative O(gamma') and O(eps^2) in the dissipated fraction; where the bead rebounds at
   all ``gamma' < eps^2 / (2 J)``, so both are O(eps^2) and the law is exact to
-  ``|delta e^2| <~ eps^2`` (measured: 0.5 eps^2 on the linear law's closed form). It is
+  ``|delta e^2| <~ eps^2`` (measured: 0.5 eps^2 on the linear law's closed form); in double
+  precision the loss ``2 gamma C g~^r`` is good to its logarithm's rounding
+  (:data:`LOSS_ROUNDING`), which ``e_err`` adds, and a stick within it of the threshold
+  keeps that bound as its ``e_err`` (a rebound not excluded). It is
   used where ``eps^2 < DEEP_WELL_EPS2``, beyond the depth where the march can resolve the
   bead's energy at the rim against the depth of the well in double precision. ``T_f`` and
   ``u_max`` are the undamped swing's (exact to O(gamma') where it rebounds); a bead that
@@ -47,8 +50,13 @@ from sweep.kernels.special import (beta_fn, iq_quadrature, large_gtilde_constant
 from sweep.registry import Status
 
 __all__ = ["undamped", "linear_overdamped", "creeps_from_start", "kappa_zero_free", "deep_well",
-           "undamped_duration", "DEEP_WELL_EPS2"]
+           "undamped_duration", "DEEP_WELL_EPS2", "LOSS_ROUNDING"]
 
+#: The rounding of the deep-well loss's logarithm, in units of the machine epsilon times the
+#: sum of its terms' magnitudes (three logarithms, a product and C through lgamma, each
+#: within an ulp or a few): points near the threshold were decided with e off by up to 33
+#: tol at 1e-8 and e_err 0 where it was left out (g~ 1e7 to 1e300, 2026-12-07).
+LOSS_ROUNDING = 8.0
 #: eps^2 = g~^(-(alpha+1)/alpha) below which :func:`deep_well` decides a point: there the
 #: law's error (~eps^2 in e^2) is below 1e-14, while the march's resolution of the rim energy
 #: is ~1e-16 of the well depth 1/eps^2.
@@ -207,12 +215,21 @@ def deep_well(c):
         return _none()
     k, r = large_gtilde_constants(c.alpha, c.beta)
     # 2 gamma C g~^r in logarithms: each factor may overflow alone.
-    log_loss = math.log(2.0 * k) + math.log(c.gamma) + r * log_g
+    log_2k, log_gamma, log_load = math.log(2.0 * k), math.log(c.gamma), r * log_g
+    log_loss = log_2k + log_gamma + log_load
+    # The loss is only as good as the rounding of its logarithm's terms (|log gamma| and
+    # r |log g~| reach 50-700): near the threshold that, not the law, decides.
+    d_log = LOSS_ROUNDING * _EPS * (1.0 + abs(log_2k) + abs(log_gamma) + abs(log_load))
     t_f = undamped_duration(c.alpha, c.gtilde)
     u_max = umax_undamped(c.alpha, c.gtilde, c.ka)
     if log_loss >= 0.0:
-        return True, 0.0, t_f, _stuck_umax(c, log_g, u_max), _STUCK, 0.0
+        # A stick; within the rounding of the threshold a rebound of e^2 <~ d_log is not
+        # excluded, as the march says near grazing.
+        err = 0.0 if log_loss >= d_log else math.sqrt(d_log + eps2)
+        return True, 0.0, t_f, _stuck_umax(c, log_g, u_max), _STUCK, err
     e2 = -math.expm1(log_loss)
     e = math.sqrt(e2)
-    # |delta e^2| <~ eps^2 (module docstring): delta e <~ eps^2 / e, and never above eps.
-    return True, e, t_f, u_max, _OK, min(eps2 / e, math.sqrt(eps2))
+    # |delta e^2| <~ eps^2 (module docstring) + loss d_log: delta e <~ that / e, and never
+    # above its root.
+    d2 = eps2 + math.exp(log_loss) * d_log
+    return True, e, t_f, u_max, _OK, min(d2 / e, math.sqrt(d2))

@@ -61,13 +61,14 @@ stick's e is exactly 0 once the energy rule certifies it, at any resolution, so 
 march need only certify it; where it leaves e_err above tol (the prediction was wrong, or
 the stick is too close to call) the point is marched at its share as any other.
 
-Owns: the step-size rule. May import: contact, special.
+Owns: the step-size rule. May import: registry, contact, special.
 """
 from __future__ import annotations
 
 import math
 from typing import NamedTuple
 
+from sweep import registry
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import (damping_rate, damping_ratio, elastic_frequency,
                                    equilibrium, umax_undamped, well_depth_at)
@@ -231,8 +232,9 @@ def graded_step(u, v, h, rho, s_min):
 #: steps; 1.3-1.7 (linear 2.2-2.7) at 33 and 96 (with 1/8: 1.45, 1.6, 2.1, 3.6; 1.2-1.7,
 #: linear 2.0-2.5). The largest errors (up to 21 times the model) are the boundary's.
 ERROR_AT_GRADE_STEPS = 5e-11
-#: Resolutions the error model may choose.
-MIN_STEPS = 8.0
+#: Resolutions the error model may choose (the least is the registry's, the least a caller
+#: may give).
+MIN_STEPS = float(registry.MIN_STEPS)
 MAX_STEPS = 1024.0
 
 
