@@ -169,12 +169,12 @@ def _evaluate(code, b, g, gt, k1, k2, x1, x2):
     """``(e, good)`` of one valid point: e of the method (NaN for the coefficient codes)
     and whether the point's outputs are finite."""
     ev = math.nan
-    if code == _ORD1:
+    if code == _ORD1 or code == _SP:
         ev = 1.0 - _first_term(g, gt, k1, k2)
-        if ev < 0.0:
+        if code == _SP:
+            ev = _clip01(ev - g * g * SP_C2)
+        elif ev < 0.0:
             ev = 0.0
-    elif code == _SP:
-        ev = _clip01(1.0 - _first_term(g, gt, k1, k2) - g * g * SP_C2)
     elif code == _LARGE:
         ev = _sqrt_plus(1.0 - _large_term(g, gt, k1, k2))
     elif code == _ORD2_NUMINT or code == _ORD2_APPROX:
