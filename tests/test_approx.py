@@ -6,6 +6,7 @@ import numba
 import numpy as np
 import pytest
 
+import reference
 import sweep
 from sweep import registry
 from sweep.kernels import approx as A
@@ -359,3 +360,16 @@ def test_table4_kuwabara_kono(gt, windows, ref_num, ref_apx):
                 assert err <= 1e-12
             else:
                 assert ref / 1.5 <= err <= 1.5 * ref, (err, ref)
+
+
+@pytest.mark.parametrize("method", ["ord2_numint", "ord2_approx"])
+@pytest.mark.parametrize("alpha, beta, gamma, gtilde", [(1.5, 1.5, 1e300, 1e6),
+                                                        (1.0, 1.0, 1e300, 1e4)])
+def test_second_order_where_its_gamma_terms_overflow(method, alpha, beta, gamma, gtilde):
+    # e_s = 1 - b I gamma + b^2 I (Q - I/2) gamma^2 of (38) falls below 0 (Q < I/2), so
+    # e = min(sqrt(max(e^2, 0)), max(e_s, 0)) = 0; e^2 became inf - inf = NaN, and e NaN.
+    i_, q_ = reference.prop2_IQ(alpha, beta, gtilde)
+    assert q_ < i_ / 2
+    e, status = sweep.cor_with_status(alpha, beta, np.array([gamma]), np.array([gtilde]),
+                                      method=method)
+    assert e[0] == 0.0 and status[0] == Status.OK

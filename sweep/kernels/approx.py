@@ -120,7 +120,9 @@ def _ord2(beta, gamma, i_, q_):
     e2 = 1.0 - 2.0 * bi + 2.0 * bi * beta * q_ * gamma
     es = 1.0 - bi + bi * beta * (q_ - 0.5 * i_) * gamma
     if es < 0.0:
-        es = 0.0
+        # e = min(sqrt(e^2), e_s) = 0 whatever e^2, which may be inf - inf where the gamma
+        # terms overflow (gamma ~ 1e300: NaN before, where the formula gives 0).
+        return 0.0
     ep = _sqrt_plus(e2)
     if ep != ep or es != es:
         return math.nan
