@@ -593,6 +593,8 @@ def _lookup_error_line(err):
     from sweep import _format
 
     w, var = err["where"], err["variable"]
+    if not err["n_points"] and not err["collapse_cells"]:
+        return f"lookup ({var}): one node a material, nothing interpolated, no error to state"
     held = _format.count(err["n_points"], "held-back point")
     line = (f"lookup ({var}, monotone PCHIP) against {var} computed directly (the method's "
             f"own error comes on top): stated error {err['max_abs']:.3g} (at "

@@ -514,10 +514,9 @@ DEVICES = ("cpu", "cuda")
 #: to be deflated; None stores every variable as computed. Deflate costs the one writer
 #: thread about 90 ms of CPU a million float64 values that it halves, and about a tenth of
 #: that where it saves more than 60%. "fast" deflates only the latter: flags, counts and
-#: smooth coordinates (the Sobol design: 112 MB a million points, 0.4 s of the writer's
-#: CPU). "small" also deflates the e and error fields that the sticking beads' exact
-#: zeros halve (76 MB, 1.0 s: a tenth of the kernels' CPU on one core, taken from them
-#: when every core computes).
+#: smooth coordinates. "small" also deflates the e and error fields that the sticking
+#: beads' exact zeros halve, for a third smaller file at three times the writer's CPU
+#: (the README's figures, `python benchmarks/writer.py --compress ...`).
 COMPRESSION = {"fast": 0.6, "small": 0.35, "none": None}
 #: The choice of a configuration that names none.
 DEFAULT_COMPRESSION = "fast"
@@ -543,7 +542,7 @@ _INTEGRATOR_OPTIONS = (
     Option("steps", 96.0, lambda v: _is_number(v) and MIN_STEPS <= v <= MAX_STEP_BUDGET,
            f"a number in [{MIN_STEPS}, 2**{_BUDGET_POWER}] (steps per half period of the "
            "stiffest linearised motion; a march takes about as many, and no step budget is "
-           "larger; e_err is calibrated from 8 up)"),
+           f"larger; e_err is calibrated from {MIN_STEPS} up)"),
     # A scaled state is in units of the impact (u'(0) = 1): from rest_tol = 1 on, every
     # loaded point is "at rest" before it moves, a silent e = 0.
     Option("rest_tol", 1e-8, lambda v: _is_number(v) and 0 < v < 1,

@@ -348,18 +348,21 @@ class Table:
         n = len(self.materials)
         return (np.repeat(np.arange(n), vv.size), np.tile(vv, n), np.tile(ff, n))
 
-    def _cell_corners(self) -> np.ndarray:
-        """e at the corners of every cell: (corner, material, v0 cell, F cell); an axis of
-        one node has one cell, that node."""
-        e = self.values
-        v = [slice(None, -1), slice(1, None)] if self.v0.size > 1 else [slice(None)]
-        f = [slice(None, -1), slice(1, None)] if self.F.size > 1 else [slice(None)]
-        return np.stack([e[:, a, b] for a in v for b in f])
+    def _cell_corners(self) -> tuple[np.ndarray, list[tuple[int, int]]]:
+        """e at the corners of every cell, (corner, material, v0 cell, F cell), and each
+        corner's node offsets (v0, F) from the cell's first; an axis of one node has one
+        cell, that node."""
+        dv = (0, 1) if self.v0.size > 1 else (0,)
+        df = (0, 1) if self.F.size > 1 else (0,)
+        offsets = [(a, b) for a in dv for b in df]
+        nv, nf = self.v0.size - len(dv) + 1, self.F.size - len(df) + 1
+        return (np.stack([self.values[:, a:a + nv, b:b + nf] for a, b in offsets]),
+                offsets)
 
     def collapse_cells(self) -> np.ndarray:
         """Cells where e falls to 0 at some corners but not all (the no-rebound speed or
         load inside): bool on (material, v0 cell, F cell)."""
-        c = self._cell_corners()
+        c = self._cell_corners()[0]
         return (c.min(axis=0) == 0.0) & (c.max(axis=0) > 0.0)
 
     def _cell_of(self, axis: str, q: np.ndarray) -> np.ndarray:
@@ -371,13 +374,15 @@ class Table:
     def _collapse_bound(self, collapse: np.ndarray) -> tuple[float, dict]:
         """The bound of the collapse cells, their largest corner (e lies between 0 and it
         where it is monotone in the cell, and so does the monotone interpolant), and where:
-        the material and the cell's first v0 [m/s] and F [N]."""
+        that node's material, v0 [m/s] and F [N]."""
         if not collapse.any():
             return 0.0, {}
-        top = np.where(collapse, self._cell_corners().max(axis=0), -1.0)
+        corners, offsets = self._cell_corners()
+        top = np.where(collapse, corners.max(axis=0), -1.0)
         i, j, k = np.unravel_index(int(np.argmax(top)), top.shape)
-        return float(top[i, j, k]), {"material": self.materials[i], "v0": float(self.v0[j]),
-                                     "F": float(self.F[k])}
+        dv, df = offsets[int(np.argmax(corners[:, i, j, k]))]
+        return float(top[i, j, k]), {"material": self.materials[i],
+                                     "v0": float(self.v0[j + dv]), "F": float(self.F[k + df])}
 
     def error(self) -> dict[str, Any]:
         """Interpolation error against direct computation: on the held-back points, and in
@@ -387,7 +392,7 @@ class Table:
         -------
         dict
             ``max_abs`` (the stated error: the larger of the two), ``where`` (its material,
-            v0 [m/s] and F [N]; a collapse cell's first corner), ``held_back_max_abs``,
+            v0 [m/s] and F [N]; a collapse cell's largest node), ``held_back_max_abs``,
             ``median_abs`` and ``n_points`` (on the held-back points), ``away_max_abs``
             (held-back points outside the collapse cells), ``collapse_cells`` (their
             number), ``collapse_bound``, ``variable``.
@@ -472,6 +477,21 @@ def _write_npz(ds: Any, path: Path, variables: list[str], error: dict | None) ->
                  **{v: ds[v].transpose(*SCENE_DIMS).values for v in variables})
 
 
+def _exported_variables(ds: Any, variables: list[str] | None) -> list[str]:
+    """The variables :func:`export` writes (its default where None), refusing a dataset
+    that is not a scene's or a variable it does not hold (named)."""
+    if not all(d in ds.dims for d in SCENE_DIMS):
+        raise ValueError(f"not a scene dataset: dimensions {tuple(ds.dims)}")
+    if variables is None:
+        variables = [v for v in ("gamma", "gtilde") if v in ds] + [
+            str(v) for v in ds.data_vars if str(v).startswith("e_")]
+    missing = [v for v in variables if v not in ds.data_vars]
+    if missing:
+        raise ValueError(f"the dataset has no variable {missing[0]!r}; it has "
+                         f"{', '.join(map(str, ds.data_vars))}")
+    return variables
+
+
 def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
            variables: list[str] | None = None, error: dict | None = None) -> Path:
     """Write a scene's table as CSV or NumPy ``.npz``.
@@ -521,15 +541,7 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
     fmt = fmt or path.suffix.lstrip(".")
     if fmt not in ("csv", "npz"):
         raise ValueError(f"format must be 'csv' or 'npz', got {fmt!r}")
-    if not all(d in ds.dims for d in SCENE_DIMS):
-        raise ValueError(f"not a scene dataset: dimensions {tuple(ds.dims)}")
-    if variables is None:
-        variables = [v for v in ("gamma", "gtilde") if v in ds] + [
-            str(v) for v in ds.data_vars if str(v).startswith("e_")]
-    missing = [v for v in variables if v not in ds.data_vars]
-    if missing:
-        raise ValueError(f"the dataset has no variable {missing[0]!r}; it has "
-                         f"{', '.join(map(str, ds.data_vars))}")
+    variables = _exported_variables(ds, variables)
     path.parent.mkdir(parents=True, exist_ok=True)   # as sweep run makes its output's
     with naming(path):
         if fmt == "csv":

@@ -506,3 +506,10 @@ def test_the_annotated_layout_parses_as_written(kind):
     cfg = config.loads(texts[kind])
     assert cfg.compress == "fast" and cfg.chunk_size == 131072
     assert {"numeric", "ord1", "ord2_approx", "auto"} <= set(cfg.outputs.methods)
+
+
+def test_a_compression_and_its_alias_are_one_configuration():
+    # A resume compares the hash: compress = true must resume a run of compress = "small".
+    same = [config.loads(GRID + f"[run]\ncompress = {v}").sha256 for v in ("true", '"small"')]
+    other = config.loads(GRID + '[run]\ncompress = "none"').sha256
+    assert same[0] == same[1] != other

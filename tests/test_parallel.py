@@ -87,29 +87,31 @@ def test_map_blocks_runs_every_block_once_whatever_the_thread_count():
         numba.set_num_threads(before)
 
 
-@pytest.mark.parametrize("threads", [1, 2, 3])
-@pytest.mark.parametrize("n, size, smallest, seed", [
-    (65536, 1024, 256, 7), (1003, 100, 10, None), (5000, 4096, 256, 1), (300, 100, 100, 3)])
-def test_a_schedule_covers_every_point_once_and_ends_in_small_blocks(n, size, smallest, seed,
-                                                                     threads):
+#: (n, size, smallest, seed) -> the blocks' sizes in their order on 2 threads: the last two
+#: blocks a thread (four) in quarters, none below ``smallest``, the short last block alone.
+SCHEDULES = {
+    (65536, 1024, 256, 7): [1024] * 60 + [256] * 16,
+    (1003, 100, 10, None): [100] * 7 + [25] * 12 + [3],
+    (300, 100, 100, 3): [100, 100, 100],
+}
+
+
+@pytest.mark.parametrize("case", list(SCHEDULES))
+def test_a_schedule_covers_every_point_once_and_ends_in_small_blocks(case):
+    n, size, smallest, seed = case
     before = numba.get_num_threads()
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("needs 2 numba threads")
     try:
-        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
-        t = numba.get_num_threads()
+        numba.set_num_threads(2)
         bounds = _parallel.schedule(n, size, smallest, seed)
     finally:
         numba.set_num_threads(before)
     covered = np.zeros(n, dtype=int)
     for lo, hi in bounds:
-        assert 0 <= lo < hi <= n
         covered[lo:hi] += 1
     assert np.all(covered == 1)
-    whole = -(-n // size)
-    if whole > 2 * t:
-        sub = max(smallest, -(-size // _parallel.TAIL_SPLIT))
-        head, tail = bounds[:whole - 2 * t], bounds[whole - 2 * t:]
-        assert all(hi - lo == size or hi == n for lo, hi in head)
-        assert all(hi - lo <= sub for lo, hi in tail) and len(tail) >= 2 * t
+    assert [hi - lo for lo, hi in bounds] == SCHEDULES[case]
     if seed is None:
         assert [lo for lo, _ in bounds] == sorted(lo for lo, _ in bounds)
 

@@ -291,7 +291,7 @@ def test_the_stated_error_bounds_the_collapse_at_the_no_rebound_speed(tmp_path):
     true = sweep.cor(p["alpha"], p["beta"], gamma, gtilde, tol=1e-10)
     worst = np.max(np.abs(table(v0) - true))
     assert err["held_back_max_abs"] < 0.5 * worst <= 0.5 * err["max_abs"]
-    assert err["max_abs"] == err["collapse_bound"] and err["where"]["v0"] < 3.87e-4
+    assert err["max_abs"] == err["collapse_bound"] and err["where"]["v0"] > 3.87e-4
     assert err["away_max_abs"] < err["held_back_max_abs"]
 
 
@@ -326,3 +326,22 @@ def test_a_scalar_query_gives_a_float_as_cor_does(scene):
     assert one == sweep.lookup(scene, v0=[0.3], F=[0.1], material=["steel"])[0]
     assert sweep.lookup(scene, v0=np.float64(0.3), F=0.1, material="bead").__class__ is float
     assert sweep.lookup(scene, v0=[0.3], F=0.1, material="bead").shape == (1,)
+
+
+def test_a_table_of_one_node_a_material_states_no_interpolation(tmp_path, capsys):
+    text = COLLAPSE.replace('v0 = {start = 1e-4, stop = 1.0, num = 38, spacing = "log"}',
+                            "v0 = 1.0")
+    path = tmp_path / "one.nc"
+    runner.run(config.loads(text, source="one.toml"), path, quiet=True)
+    assert tables.Table(path).error()["n_points"] == 0
+    assert main(["export", str(path), "--npz", "-o", str(tmp_path / "one.npz")]) == 0
+    assert "one node a material, nothing interpolated" in capsys.readouterr().out
+
+
+def test_the_stated_collapse_bound_names_the_node_that_sets_it(tmp_path):
+    path = tmp_path / "collapse.nc"
+    runner.run(config.loads(COLLAPSE, source="collapse.toml"), path, quiet=True)
+    table = tables.Table(path)
+    err = table.error()
+    j = int(np.nonzero(table.v0 == err["where"]["v0"])[0][0])
+    assert table.values[0, j, 0] == err["max_abs"] > 0 and table.values[0, j - 1, 0] == 0

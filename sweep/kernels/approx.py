@@ -20,7 +20,8 @@ approximate CoR ``e`` in [0, 1]:
         e_s = max(1 - b I gamma + b^2 I (Q - I/2) gamma^2, 0)
         e   = min(sqrt(max(e^2, 0)), e_s)
 
-    with ``I(g~)``, ``Q(g~)`` by quadrature (:func:`sweep.kernels.special.iq_quadrature`, ~1e-14) or
+    with ``I(g~)``, ``Q(g~)`` by quadrature (:func:`sweep.kernels.special.iq_quadrature`,
+    ~1e-14) or
     by the report's Chebyshev-Beta approximation of order ``n`` (Prop. 3-4, (43)-(53),
     :func:`sweep.kernels.special.iq_chebyshev`). Clipped at 1: both e^2 and e_s exceed 1 once the
     gamma^2 term wins (gamma of order 1, outside the expansion's range; SPEC section 7).
@@ -156,27 +157,25 @@ def _large_term(g, gt, c, r):
 
 
 @jit(inline="always")
-def _first_term(g, gt, c0, c1):
-    """``gamma C0 + gamma g~ C1`` of (22). Where ``g~ C1`` alone overflows the sum need not
-    (a subnormal gamma: it gave e = 0 with status OK where (22) gives 0.97; gamma = 0 gave
-    0 inf = NaN): there, and only there, ``gamma g~`` first."""
-    s = gt * c1
-    if s < math.inf:
-        return g * (c0 + s)
-    return g * c0 + (g * gt) * c1
-
-
-@jit(inline="always")
 def _evaluate(code, b, g, gt, k1, k2, x1, x2):
     """``(e, good)`` of one valid point: e of the method (NaN for the coefficient codes)
     and whether the point's outputs are finite."""
     ev = math.nan
-    if code == _ORD1 or code == _SP:
-        ev = 1.0 - _first_term(g, gt, k1, k2)
-        if code == _SP:
-            ev = _clip01(ev - g * g * SP_C2)
-        elif ev < 0.0:
+    # (22)'s gamma g~ C1 where g~ C1 alone overflows: gamma g~ first, there and only there
+    # (a subnormal gamma gave e = 0 with status OK where (22) gives 0.97, gamma = 0 NaN).
+    # The common path keeps its one expression, which LLVM fuses into multiply-adds.
+    if code == _ORD1:
+        ev = 1.0 - g * (k1 + gt * k2)
+        if not ev > -math.inf:
+            ev = 1.0 - (g * k1 + (g * gt) * k2)
+        if ev < 0.0:
             ev = 0.0
+    elif code == _SP:
+        ev = 1.0 - g * (k1 + gt * k2) - g * g * SP_C2
+        if not ev > -math.inf:
+            # g (g C2), not g g C2: a product shared with the common path would not be fused
+            ev = 1.0 - (g * k1 + (g * gt) * k2) - g * (g * SP_C2)
+        ev = _clip01(ev)
     elif code == _LARGE:
         ev = _sqrt_plus(1.0 - _large_term(g, gt, k1, k2))
     elif code == _ORD2_NUMINT or code == _ORD2_APPROX:

@@ -223,9 +223,9 @@ def deep_well(c):
     t_f = undamped_duration(c.alpha, c.gtilde)
     u_max = umax_undamped(c.alpha, c.gtilde, c.ka)
     if log_loss >= 0.0:
-        # A stick; within the rounding of the threshold a rebound of e^2 <~ d_log is not
-        # excluded, as the march says near grazing.
-        err = 0.0 if log_loss >= d_log else math.sqrt(d_log + eps2)
+        # A stick; within the rounding and the law's error of the threshold a rebound of
+        # e^2 <~ d_log + eps^2 is not excluded, as the march says near grazing.
+        err = 0.0 if log_loss >= d_log + eps2 else math.sqrt(d_log + eps2)
         return True, 0.0, t_f, _stuck_umax(c, log_g, u_max), _STUCK, err
     e2 = -math.expm1(log_loss)
     e = math.sqrt(e2)

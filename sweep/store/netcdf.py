@@ -18,7 +18,8 @@ What the file holds (variables, attributes as stored, the arrays of each chunk) 
 :mod:`sweep.store.schema`, shared with the in-memory writer.
 
 May import: numpy, netCDF4, :mod:`sweep.registry` and the store's own
-:mod:`~sweep.store.layout` and :mod:`~sweep.store.schema`. Nothing of numba, the kernels or any floor above the store.
+:mod:`~sweep.store.layout` and :mod:`~sweep.store.schema`. Nothing of numba, the kernels or
+any floor above the store.
 """
 from __future__ import annotations
 

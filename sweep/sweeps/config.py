@@ -1040,6 +1040,8 @@ def loads(text, source=""):
                                     _COMPRESSION_RULE, registry.DEFAULT_COMPRESSION))
     run.finish()
     root.finish()
+    if "compress" in data.get("run", {}):   # true and "small" are one configuration
+        data = {**data, "run": {**data["run"], "compress": compress}}
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
     return Config(text=text, source=str(source), title=title, description=description,
                   design=design_spec, outputs=outputs, integrator=integrator, options=options,
