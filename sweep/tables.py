@@ -145,6 +145,11 @@ def _cubic(c: np.ndarray, t: np.ndarray) -> np.ndarray:
     return ((c[0] * t + c[1]) * t + c[2]) * t + c[3]
 
 
+def _collapsing(corners: np.ndarray) -> np.ndarray:
+    """Cells whose ``corners`` (corner first) hold both 0 and more: e falls to 0 inside."""
+    return (corners.min(axis=0) == 0.0) & (corners.max(axis=0) > 0.0)
+
+
 def _pchip_columns(x: np.ndarray, y: np.ndarray, xq: np.ndarray) -> np.ndarray:
     """PCHIP through ``(x, y[:, j])`` evaluated at ``xq[j]``, for every column j."""
     from scipy.interpolate import PchipInterpolator
@@ -362,8 +367,7 @@ class Table:
     def collapse_cells(self) -> np.ndarray:
         """Cells where e falls to 0 at some corners but not all (the no-rebound speed or
         load inside): bool on (material, v0 cell, F cell)."""
-        c = self._cell_corners()[0]
-        return (c.min(axis=0) == 0.0) & (c.max(axis=0) > 0.0)
+        return _collapsing(self._cell_corners()[0])
 
     def _cell_of(self, axis: str, q: np.ndarray) -> np.ndarray:
         x = getattr(self, axis)
@@ -371,13 +375,14 @@ class Table:
             return np.zeros(q.size, dtype=np.intp)
         return _cells(self._coord(axis, x), self._coord(axis, q))[0]
 
-    def _collapse_bound(self, collapse: np.ndarray) -> tuple[float, dict]:
-        """The bound of the collapse cells, their largest corner (e lies between 0 and it
-        where it is monotone in the cell, and so does the monotone interpolant), and where:
-        that node's material, v0 [m/s] and F [N]."""
+    def _collapse_bound(self, corners: np.ndarray, offsets: list[tuple[int, int]],
+                        collapse: np.ndarray) -> tuple[float, dict]:
+        """The bound of the collapse cells (of :meth:`_cell_corners`' ``corners`` and
+        ``offsets``), their largest corner (e lies between 0 and it where it is monotone in
+        the cell, and so does the monotone interpolant), and where: that node's material,
+        v0 [m/s] and F [N]."""
         if not collapse.any():
             return 0.0, {}
-        corners, offsets = self._cell_corners()
         top = np.where(collapse, corners.max(axis=0), -1.0)
         i, j, k = np.unravel_index(int(np.argmax(top)), top.shape)
         dv, df = offsets[int(np.argmax(corners[:, i, j, k]))]
@@ -401,9 +406,10 @@ class Table:
         names = np.array(self.materials, dtype=object)[idx]
         d = np.abs(self(v, f, names) - self.direct(v, f, names))
         d = np.where(np.isnan(d), np.inf, d)  # an invalid point is no agreement
-        collapse = self.collapse_cells()
+        corners, offsets = self._cell_corners()
+        collapse = _collapsing(corners)
         away = ~collapse[idx, self._cell_of("v0", v), self._cell_of("F", f)]
-        bound, where = self._collapse_bound(collapse)
+        bound, where = self._collapse_bound(corners, offsets, collapse)
         held = float(d.max()) if d.size else 0.0
         if held >= bound and d.size:
             w = int(np.argmax(d))

@@ -164,8 +164,8 @@ CHUNK_SIZE_RULE = f"an integer from 1 to {limits.MAX_CHUNK_SIZE:,}"
 #: ``run.compress`` as TOML booleans: true keeps the meaning it had before the choices were
 #: named (deflate every variable where it saves 35%), false stores all as computed.
 _COMPRESSION_ALIASES = {True: "small", False: "none"}
-_COMPRESSION_RULE = (", ".join(f'"{c}"' for c in registry.COMPRESSION)
-                    + ' (or true: "small", false: "none")')
+_COMPRESSION_RULE = (", ".join(f'"{c}"' for c in registry.COMPRESSION) + " (or " + ", ".join(
+    f'{str(b).lower()}: "{c}"' for b, c in _COMPRESSION_ALIASES.items()) + ")")
 
 
 def _compression(value: Any) -> str | None:

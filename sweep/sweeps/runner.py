@@ -1036,7 +1036,9 @@ def _say_if_writer_bound(job):
             and waited >= WRITER_HINT_SECONDS
             and waited > WRITER_HINT_SHARE * result.wall_seconds):
         return
-    lighter = '"fast" or "none"' if job.cfg.compress == "small" else '"none"'
+    share = registry.COMPRESSION[job.cfg.compress]
+    lighter = " or ".join(f'"{c}"' for c, s in registry.COMPRESSION.items()
+                          if s is None or s > share)
     job.log(f"the chunks waited {result.writer_wait_seconds:.1f} s of "
             f"{result.wall_seconds:.1f} s for the writer, whose compression runs in one "
             f"thread: compress = {lighter} in the configuration's [run] table deflates "
