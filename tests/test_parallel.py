@@ -144,7 +144,7 @@ def test_map_blocks_stops_every_thread_when_the_callers_block_is_interrupted():
             started.append(lo)
         time.sleep(0.005)
         if threading.current_thread() is threading.main_thread() and len(started) > 4:
-            raise KeyboardInterrupt   # Ctrl-C lands in the caller, which computes blocks too
+            raise KeyboardInterrupt   # Ctrl-C lands in the caller, which computes too
     before = numba.get_num_threads()
     try:
         numba.set_num_threads(2)

@@ -2,15 +2,15 @@
 
 Kernels are serial numba functions compiled ``nogil``: a call on an array runs them on
 blocks of the points from the calling thread and a pool of helper threads, kept between
-calls (:func:`map_blocks`), as numba's own documentation does for ``nogil`` functions. Against
-numba's ``parallel=True`` (``prange``) this compiles nothing more than the serial kernel
-that a scalar call needs anyway (a parallel kernel cost 3-4 s of every first array call,
-the closed forms 2-3 s more), takes blocks dynamically (a thread that drew cheap points
-takes the next block), and is safe under every numba threading layer: no numba parallel
-region is ever launched, so the ``workqueue`` layer's abort when two threads launch one at
-once cannot happen. Like numbagg, calls from other threads than the main one (Dask workers,
-which already keep every core busy) run serially. Results never depend on the choice, the
-thread count or the blocks.
+calls (:func:`map_blocks`), as numba's own documentation does for ``nogil`` functions.
+Against numba's ``parallel=True`` (``prange``) this compiles nothing more than the serial
+kernel that a scalar call needs anyway (a parallel kernel cost 3-4 s of every first array
+call, the closed forms 2-3 s more), takes blocks dynamically (a thread that drew cheap
+points takes the next block), and is safe under every numba threading layer: no numba
+parallel region is ever launched, so the ``workqueue`` layer's abort when two threads
+launch one at once cannot happen. Like numbagg, calls from other threads than the main one
+(Dask workers, which already keep every core busy) run serially. Results never depend on
+the choice, the thread count or the blocks.
 
 Owns: the parallel/serial policy and the thread pool. May import: nothing from ``sweep``.
 """
