@@ -314,6 +314,16 @@ def test_errors_found_when_the_design_is_built_name_the_file(tmp_path):
     with pytest.raises(config.ConfigError, match=r"^p.toml: design.materials.glass.nu: must "
                                                  r"be != 0 for the kuwabara_kono damping"):
         config.loads(kk.replace("nu = 0.22\nfloor", "nu = 0.0\nfloor"), source="p.toml")
+    # Kuwabara-Kono's constant is for one material: a floor of another one is refused.
+    other = kk.replace("floor = {E = 63e9, nu = 0.22}", "floor = {E = 1e6, nu = 0.45}")
+    with pytest.raises(config.ConfigError, match=r"^p.toml: design.materials.glass.floor: "
+                                                 r"the kuwabara_kono damping is for a floor "
+                                                 r"of the bead's material"):
+        config.loads(other, source="p.toml")
+    rigid = kk.replace("floor = {E = 63e9, nu = 0.22}\n", "")
+    for accepted in (kk, rigid):
+        assert config.loads(accepted).design.materials[0].damping[0] == ("model",
+                                                                         "kuwabara_kono")
     path = tmp_path / "pull.toml"
     path.write_text(pulling)
     with pytest.raises(config.ConfigError, match=f"^{path}: design.materials.steel: g"):

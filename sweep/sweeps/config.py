@@ -665,10 +665,25 @@ def _parse_material(tab, name):
                   alpha)
     floor_E, floor_nu = _scene_floor(tab.table("floor"))
     gamma0, damping = _scene_damping(tab, (alpha, beta))
+    _kuwabara_kono_floor(tab, dict(damping).get("model"), floor_E, floor_nu)
     _refuse_unused(tab, props, dict(damping).get("model"))
     tab.finish()
     return MaterialSpec(name=name, alpha=alpha, beta=beta, gamma0=gamma0, floor_E=floor_E,
                         floor_nu=floor_nu, damping=damping, **props)
+
+
+def _kuwabara_kono_floor(tab, damping_model, floor_E, floor_nu):
+    # Brilliantov et al.'s constant A is that of two bodies of one viscoelastic material (or
+    # a rigid floor): on an elastic floor of another material the bead's A overstates the
+    # damping, to first order by the inverse of the bead's share of the compliance (1.8e5 for
+    # steel on a rubber-like floor; audit, 2026-12-07). Its (E, nu) are not asked for there.
+    if damping_model != "kuwabara_kono" or math.isinf(floor_E):
+        return
+    if (floor_E, floor_nu) != (tab.data["E"], tab.data["nu"]):
+        tab.error("floor", "the kuwabara_kono damping is for a floor of the bead's material "
+                           f"(E = {tab.data['E']:g}, nu = {tab.data['nu']:g}) or a rigid one "
+                           "(Brilliantov et al. 1996): give gamma0, or damping = {model = "
+                           "\"target_e\", ...}", tab.data["floor"])
 
 
 def _scene_floor(floor):
