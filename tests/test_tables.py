@@ -155,6 +155,23 @@ def test_a_query_costs_the_same_memory_whatever_the_table_size():
     assert peaks[400] < 1000 and peaks[400] < 1.5 * peaks[20], peaks
 
 
+@pytest.mark.parametrize("n", [2, 3, 4, 7])
+def test_short_axes_plateaus_and_collapses_interpolate_as_scipys_pchip(n):
+    # Tables of two and three speeds (a line; one inner node), plateaus and exact zeros
+    # (secants that vanish or change sign set a node's slope to 0), queries on the nodes.
+    rng = np.random.default_rng(n)
+    v0 = np.sort(rng.uniform(0.01, 10.0, n))
+    F = np.array([0.0, 0.2, 0.25, 1.0])
+    e = rng.uniform(0.2, 0.9, (n, F.size))
+    e[n // 2:, 1:] = 0.0                                   # collapsed at high speed and load
+    e[0, :] = e[1, :] if n > 2 else e[0, :]                # a plateau along v0
+    vq = np.concatenate([v0, rng.uniform(v0[0], v0[-1], 200)])
+    fq = rng.uniform(0.0, 1.0, vq.size)
+    got = tables.Table(_synthetic(v0, F, e))(vq, fq)
+    np.testing.assert_allclose(got, _two_pass_pchip(v0, F, e, vq, fq, False), rtol=1e-13,
+                               atol=1e-15)
+
+
 def test_a_log_axis_is_interpolated_in_log_v0():
     rng = np.random.default_rng(8)
     v0, F = np.geomspace(0.01, 10.0, 30), np.array([0.0, 0.5, 1.0])
