@@ -96,8 +96,8 @@ def map_blocks(run: Callable[[int, int], None], bounds: Iterable[tuple[int, int]
     """Call ``run(lo, hi)`` for the blocks ``bounds`` (:func:`schedule`), in their order,
     from the calling thread and ``threads() - 1`` helpers of a kept pool; ``run`` must
     release the GIL (a ``nogil`` kernel) for them to run at once. The first exception of a
-    block is raised here, once every block that had started is over; no block starts after
-    it.
+    block is raised here, once every block that had started is over; no block is claimed
+    once it is recorded.
 
     Each thread claims the next block from a shared counter: one task a helper, not one a
     block, and the caller computes instead of waiting. Against a pool task per block (the
