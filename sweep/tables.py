@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from sweep import api, registry, store
+from sweep.kernels.lookup import interpolate as _interpolate_kernel
 from sweep._arrays import check_broadcast
 from sweep._format import naming
 from sweep.model import scale
@@ -123,77 +124,20 @@ def _default_variable(ds: Any) -> str:
     return names[0]
 
 
-#: The nodes of a PCHIP that decide it in one cell: the cell's own two and one on either side,
-#: since the slope at a node comes from its two neighbouring secants (Fritsch & Carlson 1980;
-#: at the ends, scipy's three-point formula). A PCHIP through these nodes alone is, in the
-#: cell, the PCHIP through them all.
-_STENCIL = 4
-#: Queries interpolated together: the work arrays stay bounded (a few hundred bytes a query)
+#: Queries interpolated together: the work arrays stay bounded (tens of bytes a query)
 #: however many queries a call has (Table.error's held-back points are 16 times the table).
 _BLOCK = 1 << 16
 
 
-def _cells(x: np.ndarray, xq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _cells(x: np.ndarray, xq: np.ndarray) -> np.ndarray:
     """The cell of the increasing nodes ``x`` holding each query ``xq`` (the last cell for
-    the right end) and the query's offset from the cell's left node."""
-    k = np.clip(np.searchsorted(x, xq, side="right") - 1, 0, x.size - 2)
-    return k, xq - x[k]
-
-
-def _cubic(c: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """A piecewise polynomial's local cubic ``c[0] t^3 + c[1] t^2 + c[2] t + c[3]``."""
-    return ((c[0] * t + c[1]) * t + c[2]) * t + c[3]
+    the right end)."""
+    return np.clip(np.searchsorted(x, xq, side="right") - 1, 0, x.size - 2)
 
 
 def _collapsing(corners: np.ndarray) -> np.ndarray:
     """Cells whose ``corners`` (corner first) hold both 0 and more: e falls to 0 inside."""
     return (corners.min(axis=0) == 0.0) & (corners.max(axis=0) > 0.0)
-
-
-def _edge_slope(h0: np.ndarray, h1: np.ndarray, m0: np.ndarray, m1: np.ndarray
-                ) -> np.ndarray:
-    """PCHIP's slope at an end node: the one-sided three-point estimate, kept to the shape
-    of the data (scipy's ``PchipInterpolator``; C. Moler, *Numerical Computing with MATLAB*,
-    Sec. 3.6)."""
-    d = ((2 * h0 + h1) * m0 - h0 * m1) / (h0 + h1)
-    d = np.where(np.sign(d) != np.sign(m0), 0.0, d)
-    return np.where((np.sign(m0) != np.sign(m1)) & (np.abs(d) > 3.0 * np.abs(m0)), 3.0 * m0, d)
-
-
-def _pchip_slopes(h: np.ndarray, m: np.ndarray) -> np.ndarray:
-    """PCHIP's slopes at the nodes of each row, from the row's spacings ``h`` and secants
-    ``m`` (row, cell): 0 where the secants change sign or vanish, else their weighted
-    harmonic mean (Fritsch & Butland 1984), the ends as :func:`_edge_slope`, a line through
-    two nodes; scipy's ``PchipInterpolator`` rule, written out for rows of their own nodes."""
-    if m.shape[1] == 1:
-        return np.concatenate([m, m], axis=1)
-    w1, w2 = 2 * h[:, 1:] + h[:, :-1], h[:, 1:] + 2 * h[:, :-1]
-    flat = (np.sign(m[:, 1:]) != np.sign(m[:, :-1])) | (m[:, 1:] == 0) | (m[:, :-1] == 0)
-    with np.errstate(divide="ignore", invalid="ignore"):   # where flat, the mean is unused
-        inner = np.where(flat, 0.0, 1.0 / ((w1 / m[:, :-1] + w2 / m[:, 1:]) / (w1 + w2)))
-    return np.concatenate([_edge_slope(h[:, :1], h[:, 1:2], m[:, :1], m[:, 1:2]), inner,
-                           _edge_slope(h[:, -1:], h[:, -2:-1], m[:, -1:], m[:, -2:-1])],
-                          axis=1)
-
-
-def _pchip_in_rows(x: np.ndarray, y: np.ndarray, xq: np.ndarray, j: np.ndarray
-                   ) -> np.ndarray:
-    """The PCHIP through each row's nodes ``x`` and values ``y`` (query, node) at its query
-    ``xq``, which lies in the row's cell ``j``.
-
-    Each query has its own nodes (a stencil of the axis) and values (interpolated along F at
-    its own load), so scipy's interpolator, which shares its nodes between columns, was
-    built once a stencil: 269 us a scalar query and 1.7 us a query in arrays on the steel
-    ball's 200 x 104 table, against 126 us and 0.42 us with its rule applied here to all
-    rows at once (its Hermite coefficients as scipy forms them; 2026-12-07).
-    """
-    h = np.diff(x, axis=1)
-    m = np.diff(y, axis=1) / h
-    d = _pchip_slopes(h, m)
-    r = np.arange(xq.size)
-    hj, mj, d0, d1 = h[r, j], m[r, j], d[r, j], d[r, j + 1]
-    t = (d0 + d1 - 2 * mj) / hj
-    return _cubic(np.array([t / hj, (mj - d0) / hj - t, d0, y[r, j]]), xq - x[r, j])
 
 
 class Table:
@@ -305,32 +249,25 @@ class Table:
 
     def _pchip_along_F(self) -> np.ndarray | None:
         """The PCHIP along F through every (material, v0) row of the table, built once: its
-        coefficients on (power, F cell, material, v0); None for a single load."""
+        coefficients on (material, v0, F cell, power); None for a single load."""
         from scipy.interpolate import PchipInterpolator
 
         if self.F.size == 1:
             return None
-        return PchipInterpolator(self._coord("F", self.F), self.values, axis=2).c
-
-    def _along_F(self, i: np.ndarray, nodes: np.ndarray, fq: np.ndarray) -> np.ndarray:
-        """e at the queries' loads ``fq`` on the v0 nodes ``nodes`` (query, node) of the
-        queries' materials ``i``."""
-        if self._F_pieces is None:
-            return self.values[i[:, None], nodes, 0]
-        k, t = _cells(self._coord("F", self.F), self._coord("F", fq))
-        return _cubic(self._F_pieces[:, k[:, None], i[:, None], nodes], t[:, None])
+        c = PchipInterpolator(self._coord("F", self.F), self.values, axis=2).c
+        return np.ascontiguousarray(c.transpose(2, 3, 1, 0))   # a node's four together
 
     def _interpolate(self, i: np.ndarray, vq: np.ndarray, fq: np.ndarray) -> np.ndarray:
-        """e at (material index, v0, F) queries inside the table: along F on the v0 nodes
-        of each query's stencil, then PCHIP along v0 through those."""
-        n = self.v0.size
-        if n == 1:
-            return self._along_F(i, np.zeros((i.size, 1), dtype=np.intp), fq)[:, 0]
-        x, xq = self._coord("v0", self.v0), self._coord("v0", vq)
-        k = _cells(x, xq)[0]
-        first = np.clip(k - 1, 0, n - min(n, _STENCIL))
-        nodes = first[:, None] + np.arange(min(n, _STENCIL))
-        return _pchip_in_rows(x[nodes], self._along_F(i, nodes, fq), xq, k - first)
+        """e at (material index, v0, F) queries inside the table: PCHIP along F on the v0
+        nodes of each query's stencil, then along v0 through those
+        (:func:`sweep.kernels.lookup.interpolate`)."""
+        pieces = self._F_pieces if self._F_pieces is not None else np.empty((0, 0, 0, 4))
+        out = np.empty(vq.size)
+        _interpolate_kernel(self._coord("v0", self.v0), self._coord("F", self.F), pieces,
+                            np.ascontiguousarray(self.values),
+                            i.astype(np.intp), self._coord("v0", vq), self._coord("F", fq),
+                            out)
+        return out
 
     def __call__(self, v0: Any, F: Any = None, material: Any = None) -> np.ndarray | float:
         """Interpolated e [1] at impact speeds v0 [m/s] and loads F [N] (broadcast; a float
@@ -407,7 +344,7 @@ class Table:
         x = getattr(self, axis)
         if x.size == 1:
             return np.zeros(q.size, dtype=np.intp)
-        return _cells(self._coord(axis, x), self._coord(axis, q))[0]
+        return _cells(self._coord(axis, x), self._coord(axis, q))
 
     def _collapse_bound(self, corners: np.ndarray, offsets: list[tuple[int, int]],
                         collapse: np.ndarray) -> tuple[float, dict]:

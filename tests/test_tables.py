@@ -106,15 +106,18 @@ def test_a_scene_file_written_before_material_name_still_reads(scene):
 
 
 def _synthetic(v0, F, e, log_v0=False):
-    """A scene dataset of one material ("a") holding e on (v0, F), for tables' own checks."""
+    """A scene dataset holding e on (v0, F) of one material ("a"), or on (material, v0, F)
+    of materials "a", "b", ..., for tables' own checks."""
     import xarray as xr
 
+    e = e[None] if e.ndim == 2 else e
+    names = [chr(ord("a") + j) for j in range(e.shape[0])]
     ds = xr.Dataset(
-        {"e_numeric": (tables.SCENE_DIMS, e[None]),
-         **{name: ("material", [value]) for name, value in
+        {"e_numeric": (tables.SCENE_DIMS, e),
+         **{name: ("material", [value] * len(names)) for name, value in
             dict(m=0.154, k=3.6138e10, gamma0=1.5237e-6, alpha=1.5, beta=1.5).items()},
-         "material_name": ("material", ["a"]), "g": 9.81},
-        coords={"material": [0], "v0": v0, "F": F})
+         "material_name": ("material", names), "g": 9.81},
+        coords={"material": list(range(len(names))), "v0": v0, "F": F})
     if log_v0:
         ds["v0"].attrs["spacing"] = "log"
     return ds
@@ -170,6 +173,19 @@ def test_short_axes_plateaus_and_collapses_interpolate_as_scipys_pchip(n):
     got = tables.Table(_synthetic(v0, F, e))(vq, fq)
     np.testing.assert_allclose(got, _two_pass_pchip(v0, F, e, vq, fq, False), rtol=1e-13,
                                atol=1e-15)
+
+
+def test_each_query_reads_its_own_materials_table():
+    rng = np.random.default_rng(11)
+    v0, F = np.sort(rng.uniform(0.01, 10.0, 9)), np.array([0.0, 0.4, 0.5, 2.0, 3.0])
+    e = rng.uniform(0.0, 1.0, (3, v0.size, F.size))
+    vq, fq = rng.uniform(v0[0], v0[-1], 300), rng.uniform(0.0, 3.0, 300)
+    names = np.array(["a", "b", "c"])[rng.integers(0, 3, 300)]
+    got = tables.Table(_synthetic(v0, F, e))(vq, fq, names)
+    for j, name in enumerate("abc"):
+        sel = names == name
+        np.testing.assert_allclose(got[sel], _two_pass_pchip(v0, F, e[j], vq[sel], fq[sel],
+                                                             False), rtol=1e-13, atol=1e-15)
 
 
 def test_a_log_axis_is_interpolated_in_log_v0():
