@@ -9,7 +9,8 @@ Values are those of :func:`sweep.cor` / :func:`sweep.integrate` on plain arrays,
 
 ``import sweep.xr`` also registers the Dataset accessor ``ds.sweep`` (see
 :class:`SweepAccessor`): ``ds.sweep.cor(method)`` evaluates a method at the points of a sweep
-dataset and ``ds.sweep.error(method)`` its error field against ``ds.e_numeric``.
+dataset (gives back its ``e_<method>`` where it holds one) and ``ds.sweep.error(method)`` its
+error field against ``ds.e_numeric``.
 ``import sweep`` alone does not import xarray's accessor machinery nor this module.
 
 Owns: the labelled front ends. May import: :mod:`sweep.api`, :mod:`sweep.registry` (method
@@ -252,8 +253,21 @@ class SweepAccessor:
         with the settings the dataset records for ``method`` (:func:`sweep.api.recorded_settings`:
         a file of ``sweep run`` gives its own numbers back) unless ``options`` say others;
         a ``tol`` given also sets aside the recorded ``steps`` (``tol`` then chooses the
-        resolution), a ``steps`` given replaces ``steps`` alone."""
+        resolution), a ``steps`` given replaces ``steps`` alone.
+
+        Where the dataset holds ``e_<method>`` and no ``options`` are given, that variable
+        is what comes back (lazy if the dataset is), with the attributes a computation
+        gives and ``source_variable``: the same numbers on the machine that wrote it, each
+        point's from its own run's settings, which a dataset combined from runs of other
+        settings no longer records (``xarray.open_mfdataset`` keeps the first file's
+        attributes: computing with them was up to 2.8e-2 off ``e_ord2_approx`` where a
+        second file had another ``n``; audit, 2026-12-07)."""
         recorded = api.recorded_settings(self._ds.attrs, method)
+        stored = f"e_{method}"
+        if not options and stored in self._ds.data_vars:
+            out = self._ds[stored].copy(deep=False)
+            out.attrs = {**_method_attrs(method, recorded), "source_variable": stored}
+            return out
         if "tol" in options:
             # A tol given chooses the resolution: the file's steps must not overrule it.
             recorded.pop("steps", None)
