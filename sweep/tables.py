@@ -170,7 +170,8 @@ class Table:
                              f"{', '.join(_cor_variables(ds)) or 'no e_<method>'}")
         self.method = _method_of(self.variable)
         ds = ds.sortby(["v0", "F"])  # axes given as lists need not be increasing
-        self.values = ds[self.variable].transpose(*SCENE_DIMS).values.astype(np.float64)
+        self.values = np.ascontiguousarray(ds[self.variable].transpose(*SCENE_DIMS).values,
+                                           dtype=np.float64)
         self.materials = _material_names(ds)
         self.v0 = ds["v0"].values.astype(np.float64)
         self.F = ds["F"].values.astype(np.float64)
@@ -180,6 +181,8 @@ class Table:
         self.g = float(ds["g"].values)
         self.options = api.recorded_settings(ds.attrs, self.method)
         self._refuse_missing_nodes()
+        #: The nodes' coordinates along each axis (log where the axis is), formed once.
+        self._nodes = {axis: self._coord(axis, getattr(self, axis)) for axis in ("v0", "F")}
         self._F_pieces = self._pchip_along_F()
 
     def _refuse_missing_nodes(self) -> None:
@@ -247,26 +250,23 @@ class Table:
         idx = self._material_index(flat.get("material"), flat["v0"].size)
         return flat["v0"], flat["F"], idx, shape
 
-    def _pchip_along_F(self) -> np.ndarray | None:
+    def _pchip_along_F(self) -> np.ndarray:
         """The PCHIP along F through every (material, v0) row of the table, built once: its
-        coefficients on (material, v0, F cell, power); None for a single load."""
+        coefficients on (material, v0, F cell, power); no cells for a single load."""
         from scipy.interpolate import PchipInterpolator
 
         if self.F.size == 1:
-            return None
-        c = PchipInterpolator(self._coord("F", self.F), self.values, axis=2).c
+            return np.empty((0, 0, 0, 4))
+        c = PchipInterpolator(self._nodes["F"], self.values, axis=2).c
         return np.ascontiguousarray(c.transpose(2, 3, 1, 0))   # a node's four together
 
     def _interpolate(self, i: np.ndarray, vq: np.ndarray, fq: np.ndarray) -> np.ndarray:
         """e at (material index, v0, F) queries inside the table: PCHIP along F on the v0
         nodes of each query's stencil, then along v0 through those
         (:func:`sweep.kernels.lookup.interpolate`)."""
-        pieces = self._F_pieces if self._F_pieces is not None else np.empty((0, 0, 0, 4))
         out = np.empty(vq.size)
-        _interpolate_kernel(self._coord("v0", self.v0), self._coord("F", self.F), pieces,
-                            np.ascontiguousarray(self.values),
-                            i.astype(np.intp), self._coord("v0", vq), self._coord("F", fq),
-                            out)
+        _interpolate_kernel(self._nodes["v0"], self._nodes["F"], self._F_pieces, self.values,
+                            i, self._coord("v0", vq), self._coord("F", fq), out)
         return out
 
     def __call__(self, v0: Any, F: Any = None, material: Any = None) -> np.ndarray | float:
@@ -312,7 +312,7 @@ class Table:
         """Points inside the cells of every material's table: (material index, v0, F)."""
         axes = []
         for axis in ("v0", "F"):
-            x = self._coord(axis, getattr(self, axis))
+            x = self._nodes[axis]
             inside = [x[:-1] + f * np.diff(x) for f in HELD_BACK_FRACTIONS] if x.size > 1 else []
             lattice = np.sort(np.concatenate([x, *inside]))
             axes.append((np.exp(lattice) if self.log[axis] else lattice,
@@ -341,10 +341,10 @@ class Table:
         return _collapsing(self._cell_corners()[0])
 
     def _cell_of(self, axis: str, q: np.ndarray) -> np.ndarray:
-        x = getattr(self, axis)
+        x = self._nodes[axis]
         if x.size == 1:
             return np.zeros(q.size, dtype=np.intp)
-        return _cells(self._coord(axis, x), self._coord(axis, q))
+        return _cells(x, self._coord(axis, q))
 
     def _collapse_bound(self, corners: np.ndarray, offsets: list[tuple[int, int]],
                         collapse: np.ndarray) -> tuple[float, dict]:
