@@ -10,7 +10,8 @@ HDF5 file is not crash-safe, and a resumed run rebuilds it from the chunk files.
 Nothing found on disk is trusted without proof:
 
 * every chunk file records what it belongs to (the manifest's hash, the configuration's
-  hash, its index and point range) and a SHA-256 of its points and of its values;
+  hash, its index and point range), a SHA-256 of its points and the CRC-32 of each of its
+  arrays, which the zip container also holds and checks as the array is read back;
   :meth:`PartialStore.load_chunk` checks all of it and turns down (for recomputation) a file
   that is unreadable, damaged, from another run or computed at other points, counting why
   in :attr:`PartialStore.rejected`;
@@ -37,6 +38,7 @@ import os
 import shutil
 import socket
 import sys
+import zipfile
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -56,10 +58,12 @@ __all__ = ["PartialStore", "ResumeError", "LockError", "OutputLock", "partial_di
 
 #: Format of the manifest; version 2 introduced self-describing, checksummed chunk files.
 MANIFEST_FORMAT = "sweep-partial/2"
-#: Format tag stored in every chunk file's metadata; version 3 records the SHA-256 of the
-#: points the chunk was computed at, version 2 keeps any numbers with a chunk (its
-#: ``tally``), version 1 its two times only (older chunks are recomputed).
-CHUNK_FORMAT = "sweep-chunk/3"
+#: Format tag stored in every chunk file's metadata; version 4 records the CRC-32 of each
+#: array as its zip member's (version 3: a SHA-256 of the values, a pass of its own over
+#: them), version 3 the SHA-256 of the points the chunk was computed at, version 2 keeps
+#: any numbers with a chunk (its ``tally``), version 1 its two times only (older chunks
+#: are recomputed).
+CHUNK_FORMAT = "sweep-chunk/4"
 #: Attempts at taking the lock while its holder is removing the lock file.
 _LOCK_ATTEMPTS = 5
 
@@ -302,8 +306,9 @@ def _digest(arrays):
     return h.hexdigest()
 
 
-def _chunk_problem(meta, data, expect):
-    """Why a chunk file read back does not hold what is expected, or None if it does."""
+def _chunk_problem(meta, data, expect, crc):
+    """Why a chunk file read back does not hold what is expected, or None if it does
+    (``crc``: the CRC-32 of each array's member in the file's zip directory)."""
     if meta.get("format") != CHUNK_FORMAT:
         return f"of format {str(meta.get('format'))[:40]}, not {CHUNK_FORMAT}"
     if (meta.get("identity"), meta.get("config_sha256")) != (expect["identity"],
@@ -319,9 +324,33 @@ def _chunk_problem(meta, data, expect):
     n = expect["stop"] - expect["start"]
     if set(data) != set(expect["variables"]) or any(a.shape != (n,) for a in data.values()):
         return "incomplete"
-    if meta.get("sha256") != _digest(data):
+    if meta.get("crc32") != crc:
         return "checksum mismatch"
     return None
+
+
+def _write_chunk(fh, arrays, meta):
+    """``np.savez``'s layout (one stored ``.npy`` member per array) with the metadata
+    member last, holding each array's CRC-32 as zipfile computed it while writing it.
+
+    zipfile checks a member against the CRC of the zip's directory as it reads it, which
+    catches a damaged file; the copy in the metadata catches a file rewritten around other
+    values (its directory's CRCs recomputed). Both cost no pass over the values of their
+    own: a SHA-256 of them took 0.06 s of the saver's CPU a million points of
+    configs/sobol_1m.toml, CPU that the kernels' cores give up on two threads."""
+    with zipfile.ZipFile(fh, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+        for name, a in arrays.items():
+            with zf.open(name + ".npy", "w", force_zip64=True) as member:
+                np.lib.format.write_array(member, np.asanyarray(a), allow_pickle=False)
+        meta = dict(meta, crc32=_member_crcs(zf, arrays))
+        with zf.open("__meta__.npy", "w", force_zip64=True) as member:
+            np.lib.format.write_array(member, np.array(json.dumps(meta)),
+                                      allow_pickle=False)
+
+
+def _member_crcs(zf, names):
+    """The CRC-32 of the ``.npy`` member of each of ``names`` in the zip ``zf``."""
+    return {name: zf.getinfo(name + ".npy").CRC for name in sorted(names)}
 
 
 class PartialStore:
@@ -487,8 +516,8 @@ class PartialStore:
         """Save a finished chunk atomically (a crash leaves it absent or complete).
 
         The file records the manifest's hash, the configuration's hash, ``index``, the
-        point range and the SHA-256 of the points and of the values, all checked by
-        :meth:`load_chunk`.
+        point range, the SHA-256 of the points and the CRC-32 of each array, all checked
+        by :meth:`load_chunk`.
 
         Parameters
         ----------
@@ -502,14 +531,11 @@ class PartialStore:
         points : dict of str -> ndarray, optional
             The parameters of the chunk's points, by name.
         """
-        payload = {name: np.asarray(a) for name, a in arrays.items()}
         meta = {"format": CHUNK_FORMAT, "identity": self.identity,
                 "config_sha256": self.manifest.get("config_sha256"), "index": int(index),
                 "start": int(start), "stop": int(stop),
-                "tally": [float(t) for t in tally], "points_sha256": _digest(points or {}),
-                "sha256": _digest(payload)}
-        payload["__meta__"] = np.array(json.dumps(meta))
-        write_atomic(self._chunk_path(index), lambda fh: np.savez(fh, **payload))
+                "tally": [float(t) for t in tally], "points_sha256": _digest(points or {})}
+        write_atomic(self._chunk_path(index), lambda fh: _write_chunk(fh, arrays, meta))
 
     def load_chunk(self, index: int, start: int, stop: int,
                    points: Mapping[str, Any] | None = None
@@ -534,6 +560,7 @@ class PartialStore:
         try:
             with np.load(self._chunk_path(index), allow_pickle=False) as z:
                 data = {k: z[k] for k in z.files}
+                crc = _member_crcs(z.zip, set(data) - {"__meta__"})
             meta = json.loads(str(data.pop("__meta__")))
             tally = tuple(float(t) for t in meta["tally"])
         except FileNotFoundError:
@@ -546,7 +573,7 @@ class PartialStore:
                   self.manifest.get("config_sha256"), "index": index, "start": start,
                   "stop": stop, "variables": self.manifest["variables"],
                   "points_sha256": _digest(points or {})}
-        problem = _chunk_problem(meta, data, expect)
+        problem = _chunk_problem(meta, data, expect, crc)
         if problem is not None:
             self.rejected[problem] += 1
             return None

@@ -617,11 +617,11 @@ class _Behind:
     writer's zlib runs inside HDF5 with the GIL released, so it overlaps the next chunk's
     kernels (fully with serial kernels, which leave cores idle), and only its thread touches
     the file while it runs (HDF5 builds are usually not thread-safe). Hashing, writing and
-    syncing a chunk for resume (0.19 s a million points of configs/sobol_1m.toml, most of a
-    run's serial part, which the cores do not shorten) overlaps them too. The depth bounds
-    memory; an error in a call is raised in the main thread at the next :meth:`submit` or
-    at :meth:`drain`, and :meth:`settle` waits without raising, so that a failed or
-    interrupted run keeps, and counts, every chunk saved.
+    syncing a chunk for resume (0.1 s of CPU a million points of configs/sobol_1m.toml, most
+    of a run's serial part, which the cores do not shorten) overlaps them too. The depth
+    bounds memory; an error in a call is raised in the main thread at the next
+    :meth:`submit` or at :meth:`drain`, and :meth:`settle` waits without raising, so that a
+    failed or interrupted run keeps, and counts, every chunk saved.
     """
 
     def __init__(self, call: Callable[..., None], depth: int, name: str) -> None:
