@@ -99,9 +99,12 @@ def deflate_filters(values: np.ndarray, min_saving: float | None) -> dict:
     size = flat.dtype.itemsize
     piece = max(1, TRIAL_BYTES // size // TRIAL_PIECES)
     starts = np.linspace(0, max(flat.size - piece, 0), TRIAL_PIECES).astype(int)
-    trial = np.unique(np.concatenate([np.arange(s, min(s + piece, flat.size))
-                                      for s in starts]))
-    raw = flat[trial].view(np.uint8)
+    # A mask, not np.unique of the pieces' indices (they overlap in a short chunk): that
+    # took 0.6 ms a variable, 12 ms of a run's first chunk in the writer's thread.
+    taken = np.zeros(flat.size, dtype=bool)
+    for s in starts:
+        taken[s:s + piece] = True
+    raw = flat[taken].view(np.uint8)
     if raw.size < TRIAL_MIN_BYTES:
         return {"zlib": True, "complevel": COMPLEVEL, "shuffle": size > 1}
     plain = len(zlib.compress(raw.tobytes(), COMPLEVEL))
