@@ -1,5 +1,7 @@
 """netCDF output, partial state for resuming, atomic commit (sweep.store)."""
 import json
+import zipfile
+import zlib
 
 import numpy as np
 import pytest
@@ -241,6 +243,22 @@ def test_partial_store_saves_loads_and_resumes(tmp_path):
         store.PartialStore(out, manifest()).open()
     q.remove()
     assert not p.dir.exists()
+
+
+def test_a_saved_chunk_is_an_npz_whose_metadata_holds_each_members_crc32(tmp_path):
+    p = store.PartialStore(tmp_path / "out.nc", manifest())
+    p.open()
+    arrays = {"e_ord1": np.linspace(0.0, 1.0, 4), "status": np.array([0, 1, 2, 3], np.int8)}
+    p.save_chunk(0, 0, 4, arrays, (1.0,))
+    path = p.dir / "chunk_0000000.npz"
+    with np.load(path) as z:                         # numpy reads it as any .npz
+        for name, a in arrays.items():
+            np.testing.assert_array_equal(z[name], a)
+        meta = json.loads(str(z["__meta__"]))
+    with zipfile.ZipFile(path) as zf:                # zlib's CRC-32 of each member's bytes
+        crc = {name: zlib.crc32(zf.read(name + ".npy")) for name in arrays}
+    assert meta["crc32"] == crc
+    p.release()
 
 
 @pytest.mark.parametrize("key, value, what", [
