@@ -30,7 +30,7 @@ import math
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import potential, well_depth
 
-__all__ = ["q_error", "swing2", "defect_share", "rebound_share", "coarse_room", "KAPPA_Q",
+__all__ = ["q_error", "swing2", "swing_of", "defect_share", "rebound_share", "coarse_room", "KAPPA_Q",
            "KAPPA_STEPS", "COARSE_STEPS", "ROUNDING", "PATH_WEIGHT", "REBOUND_SHARE"]
 
 #: Global error of q per unit of the summed embedded local error estimates of the
@@ -91,19 +91,27 @@ def coarse_room(steps):
 @jit(inline="always")
 def swing2(c):
     """``1 + 2 |V(u-bar)|``: the square of the largest speed of the swing of the law ``c``."""
-    return 1.0 + 2.0 * well_depth(c.alpha, c.gtilde)
+    return swing_of(well_depth(c.alpha, c.gtilde))
 
 
 @jit(inline="always")
-def q_error(c, u, v, h, lq, n, steps, share):
+def swing_of(depth):
+    """:func:`swing2` of a law whose well is ``depth`` deep
+    (:func:`sweep.kernels.contact.well_depth`)."""
+    return 1.0 + 2.0 * depth
+
+
+@jit(inline="always")
+def q_error(c, u, v, h, lq, n, steps, share, swing):
     """Estimated error ``dq`` of the dissipated energy (so of ``h = 1/2 - q``) of a march
     at resolution ``steps`` (steps per half period) that is at ``(u, v)`` after ``n``
     steps, with ``lq`` its summed local error estimates of the dissipation integral and
     ``share`` the energy defect's share (:func:`defect_share`, or 1), a rounding floor
-    included (module docstring)."""
+    included (module docstring). ``swing``: :func:`swing2` of ``c``, which a caller forms
+    once for all its uses (a pow each: a KK point's decision took three)."""
     defect = 0.5 * v * v + potential(u, c) - h
     kappa = KAPPA_Q * min(1.0, KAPPA_STEPS / steps)
-    return (kappa * lq + share * abs(defect) / swing2(c)) * coarse_room(steps) \
+    return (kappa * lq + share * abs(defect) / swing) * coarse_room(steps) \
         + ROUNDING * math.sqrt(n + 1.0)
 
 

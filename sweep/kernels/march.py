@@ -42,7 +42,7 @@ from typing import NamedTuple
 import numpy as np
 
 from sweep.kernels._jit import jit
-from sweep.kernels.balance import q_error
+from sweep.kernels.balance import q_error, swing_of
 from sweep.kernels.contact import (accel, damping_rate, dissipated, elastic_frequency,
                                    make_law, overdamped_at_rest, potential, ppow_called,
                                    rhs_called, velocity, well_depth)
@@ -303,8 +303,9 @@ def _stick_doubt(st, c):
     # that bound (46% of the steps of heavily damped KK draws), where a few steps more of
     # this march, H still falling, decide it.
     h = st.e0 - dissipated(st.u, st.v, st.r, c)
-    dq = q_error(c, st.u, st.v, h, st.lq, st.n, st.p.steps, 1.0)
-    return -1.0 if well_depth(c.alpha, c.gtilde) <= dq else h + dq
+    depth = well_depth(c.alpha, c.gtilde)
+    dq = q_error(c, st.u, st.v, h, st.lq, st.n, st.p.steps, 1.0, swing_of(depth))
+    return -1.0 if depth <= dq else h + dq
 
 
 @jit(inline="always")

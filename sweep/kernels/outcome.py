@@ -177,7 +177,8 @@ def _exit(c, end, h, dq, swing2, steps):
     if e <= 0.0:
         return 0.0, _STUCK, _undecided(h, dq), e_q, e_v
     if balance:
-        err = q_error(c, end.u, end.v, h, end.lq, end.n, steps, rebound_share(h)) / e
+        err = q_error(c, end.u, end.v, h, end.lq, end.n, steps, rebound_share(h),
+                      swing2) / e
     else:
         err = _velocity_error(end, e, lam, swing2, c.gtilde) * coarse_room(steps) \
             ** COARSE_POWER_W
@@ -226,9 +227,10 @@ def decide(c, end, steps):
     the energy balance's and the velocity's values of e where the bead left (NaN where not
     defined)."""
     h = end.h
-    dq = q_error(c, end.u, end.v, h, end.lq, end.n, steps, defect_share(h))
+    swing = swing2(c)
+    dq = q_error(c, end.u, end.v, h, end.lq, end.n, steps, defect_share(h), swing)
     if end.kind == EXIT:
-        return _exit(c, end, h, dq, swing2(c), steps)
+        return _exit(c, end, h, dq, swing, steps)
     if end.kind == TROUGH:
         return _trough(c, end, h, dq)
     undecided = _undecided(h, dq) if h > -dq else 0.0
