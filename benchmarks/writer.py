@@ -8,8 +8,10 @@ then writes those values with :class:`sweep.store.NetCDFWriter` in the configura
 chunks, one core, ``repeat`` times, deflating as ``--compress`` says (``run.compress``;
 default the configuration's). Prints the writer's CPU seconds per million points
 (best of ``repeat``; zlib runs inside HDF5 in this thread), the file's size against the raw
-values', and each variable's compression as xarray reads it back. On the Sobol design the
-writer's CPU is taken from the kernels' cores in a run on every core (``docs/speed``).
+values', and each variable's compression as xarray reads it back; then the CPU seconds of
+saving the same chunks for resume (:meth:`sweep.store.PartialStore.save_chunk`, a run's
+saver thread). On the Sobol design both are taken from the kernels' cores in a run on
+every core (``docs/speed``).
 """
 from __future__ import annotations
 
@@ -57,6 +59,22 @@ def write(path, data, points, chunk, compress):
     return time.process_time() - t
 
 
+def save(path, data, points, chunk):
+    """Save ``data`` chunk by chunk for resume (:class:`sweep.store.PartialStore`, as a
+    run's saver thread does); return the CPU seconds it took."""
+    n = len(next(iter(points.values())))
+    partial = store.PartialStore(path, {"config_sha256": "benchmark", "variables": list(data)})
+    partial.open()
+    t = time.process_time()
+    for i, s in enumerate(range(0, n, chunk)):
+        e = min(n, s + chunk)
+        partial.save_chunk(i, s, e, {k: v[s:e] for k, v in data.items()}, (0.0,),
+                           {k: v[s:e] for k, v in points.items()})
+    cpu = time.process_time() - t
+    partial.remove()
+    return cpu
+
+
 def main():
     p = argparse.ArgumentParser()
     p.add_argument("--n", type=int, default=131072)
@@ -73,9 +91,12 @@ def main():
         size = os.path.getsize(out)
         with xr.open_dataset(out) as ds:
             enc = {k: ds[k].encoding for k in list(data) + list(COORDS)}
+        saves = min(save(Path(tmp) / "s.nc", data, points, chunk) for _ in range(args.repeat))
     print(f"writer, compress = {compress!r}: {cpu / args.n * 1e6:.2f} s of CPU a million "
           f"points ({args.n:,} points, "
           f"chunks of {chunk:,}); file {size / 1e6:.2f} MB of {raw / 1e6:.2f} MB raw")
+    print(f"resume saves: {saves / args.n * 1e6:.2f} s of CPU a million points (the chunk files "
+          f"a run keeps until it completes, written by its saver thread)")
     for k, e in enc.items():
         how = ("deflate" + (" + shuffle" if e.get("shuffle") else "")) if e.get("zlib") \
             else "stored"

@@ -250,9 +250,10 @@ def test_hp_audit_script_finds_no_violation_on_a_small_draw():
 
 
 def test_writer_script_writes_the_sobol_values_and_names_each_choice():
-    head, *rows = _script_lines("writer.py", "--n", "2048", "--repeat", "1",
-                                "--compress", "small")
+    head, saves, *rows = _script_lines("writer.py", "--n", "2048", "--repeat", "1",
+                                       "--compress", "small")
     assert "s of CPU a million points" in head and "MB raw" in head, head
+    assert saves.startswith("resume saves: ") and "s of CPU a million points" in saves, saves
     assert "compress = 'small'" in head, head
     size, raw = (float(x.split(" MB")[0]) for x in head.split("file ")[1].split(" of "))
     assert 0 < size < raw, head                  # the e fields, flags and coordinates deflate
