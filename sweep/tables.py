@@ -7,8 +7,9 @@ grid (material, v0, F), with each material's m, k, gamma0, alpha, beta, its name
 
 * along v0 and along F by monotone piecewise-cubic Hermite interpolation (PCHIP, Fritsch &
   Carlson 1980; ``scipy.interpolate.PchipInterpolator``): where the tabulated e is monotone
-  along an axis the interpolant is too, and it never leaves the range of its neighbouring
-  values (so 0 <= e <= 1 holds);
+  along an axis the interpolant is too on the other axis's nodes (between them the two
+  passes need not be: docs/scenes.md, section 4), and it never leaves the range of its
+  neighbouring values (so 0 <= e <= 1 holds);
 * in log v0 (log F) where the axis was given with ``spacing = "log"``;
 * no extrapolation: a query outside the table raises ``ValueError`` naming it.
 
@@ -22,12 +23,13 @@ query, the held-back check of a 200 x 104 table took 6 GB).
 method and settings as the table, at the scaled point of eq. (2): the method's own error,
 auto's tol or a closed form's, comes on top) on *held-back points*: points inside every
 cell, at the quarter, half and three-quarter marks of each axis, which are not in the
-table. That maximum is an estimate measured on a lattice four times finer, not a proof (in
-smooth end cells up to ~6% low). Where e falls to 0 inside a cell (the no-rebound speed or
-load, some corners 0, others not) e collapses like a square root that no cubic follows,
-and the held-back points can miss the collapse (the interpolant there was up to 2.9 times
-their maximum): such a cell is bounded by its largest corner instead, where e lies between
-0 and it. The stated error is the larger of the two. :func:`lookup` is the one-call form.
+table. That maximum is an estimate measured on a lattice four times finer, not a proof (up
+to ~9% low on a lattice 9-11 times finer, docs/scenes.md). Where e falls to 0 inside a
+cell (the no-rebound speed or load, some corners 0, others not) e collapses like a square
+root that no cubic follows, and the held-back points can miss the collapse (the
+interpolant there was up to 2.9 times their maximum): such a cell is bounded by its largest
+corner instead, where e lies between 0 and it. The stated error is the larger of the two.
+:func:`lookup` is the one-call form.
 Every node must hold a value: a table with a NaN node (a method undefined there) is
 refused, naming it.
 
@@ -62,11 +64,19 @@ __all__ = ["Table", "lookup", "export", "SCENE_DIMS", "HELD_BACK_FRACTIONS"]
 SCENE_DIMS = ("material", "v0", "F")
 #: Where the held-back points sit inside each cell, as fractions of the cell (per axis).
 HELD_BACK_FRACTIONS = (0.25, 0.5, 0.75)
+#: A query within this fraction of an end of an axis is taken at that end: the rounding of
+#: a float32 query (2^-24; a single-precision code asking for v0 = 0.01 gives
+#: 0.009999999776...), far below any table's interpolation error.
+END_ROUNDING = 1.2e-7
 _MATERIAL_VARIABLES = ("m", "k", "gamma0", "alpha", "beta")
 
 
 def _open(dataset: Any) -> Any:
     if isinstance(dataset, (str, os.PathLike)):
+        if Path(dataset).suffix.lower() in (".npz", ".csv"):
+            # netCDF's own refusal of it named no cause ("[Errno -51] not a netCDF file").
+            raise ValueError(f"{dataset} is an exported table, not a scene dataset: give "
+                             "the netCDF file sweep run wrote for the scene")
         with store.open_dataset(dataset) as ds:
             return ds.load()
     return dataset
@@ -129,6 +139,18 @@ def _default_variable(ds: Any) -> str:
 _BLOCK = 1 << 16
 
 
+def _names(material: Any) -> np.ndarray:
+    """Material names as a numpy str array; bytes (as netCDF and HDF5 readers give names)
+    decoded as UTF-8."""
+    a = np.asarray(material)
+    if a.dtype.kind == "S":
+        return np.char.decode(a, "utf-8")
+    if a.dtype.kind == "O":
+        return np.array([m.decode("utf-8") if isinstance(m, bytes) else str(m)
+                         for m in a.reshape(-1)], dtype=str).reshape(a.shape)
+    return a.astype(str)
+
+
 def _cells(x: np.ndarray, xq: np.ndarray) -> np.ndarray:
     """The cell of the increasing nodes ``x`` holding each query ``xq`` (the last cell for
     the right end)."""
@@ -181,6 +203,7 @@ class Table:
         self.g = float(ds["g"].values)
         self.options = api.recorded_settings(ds.attrs, self.method)
         self._refuse_missing_nodes()
+        self._refuse_repeated_nodes()
         #: The nodes' coordinates along each axis (log where the axis is), formed once.
         self._nodes = {axis: self._coord(axis, getattr(self, axis)) for axis in ("v0", "F")}
         self._F_pieces = self._pchip_along_F()
@@ -197,23 +220,38 @@ class Table:
                              f"{self.F[k]:g} N: a table needs one at every node (leave that "
                              "speed or load out of the scene, or tabulate another method)")
 
+    def _refuse_repeated_nodes(self) -> None:
+        """Raise ``ValueError`` naming a speed or load that is a node twice (a dataset joined
+        from scenes that share one): PCHIP's slopes there divide by the zero spacing, and
+        its neighbours' came out wrong by ~1e-4 where the table's error was 1e-8."""
+        for axis, unit in (("v0", "m/s"), ("F", "N")):
+            nodes = getattr(self, axis)
+            repeated = np.flatnonzero(np.diff(nodes) <= 0)
+            if repeated.size:
+                raise ValueError(f"{axis} = {nodes[repeated[0]]:g} {unit} is a node twice: a "
+                                 f"table's {axis} must not repeat a value (drop one, e.g. "
+                                 f"ds.drop_duplicates({axis!r}))")
+
     # -- interpolation --------------------------------------------------------------------
 
     def _coord(self, axis: str, values: np.ndarray) -> np.ndarray:
         return np.log(values) if self.log[axis] else values
 
     def _in_range(self, axis: str, q: np.ndarray) -> np.ndarray:
-        """The queries, clipped onto the table's range if within rounding of it.
+        """The queries, clipped onto the table's range if within :data:`END_ROUNDING` of
+        an end (relative to that end: an absolute allowance set by the axis's largest
+        value let v0 = 0 through on an axis from 1e-9 to 1e3 m/s).
 
         Raises
         ------
         ValueError
-            A query outside the table (named).
+            A query outside the table or not a number (named).
         """
+        if np.isnan(q).any():
+            raise ValueError(f"{axis} = nan is not a number")
         nodes = getattr(self, axis)
         lo, hi = nodes[0], nodes[-1]
-        slack = 1e-12 * max(abs(lo), abs(hi), 1e-300)
-        bad = ~((q >= lo - slack) & (q <= hi + slack))
+        bad = ~((q >= lo - END_ROUNDING * abs(lo)) & (q <= hi + END_ROUNDING * abs(hi)))
         if np.any(bad):
             raise ValueError(f"{axis} = {float(q[bad][0])!r} is outside the table "
                              f"[{lo:g}, {hi:g}]")
@@ -225,11 +263,16 @@ class Table:
             if len(self.materials) != 1:
                 raise ValueError(f"material is required: the table has {self.materials}")
             return np.zeros(n, dtype=np.intp)
-        position = {name: i for i, name in enumerate(self.materials)}
-        unknown = sorted({str(m) for m in material} - position.keys())
-        if unknown:
-            raise ValueError(f"unknown material {unknown[0]!r}; the table has {self.materials}")
-        return np.array([position[str(m)] for m in material], dtype=np.intp)
+        idx = np.full(n, -1, dtype=np.intp)
+        # One vectorised comparison per material of the table: a dict lookup per query
+        # cost 0.25 s a million queries, four times the interpolation.
+        for i, name in enumerate(self.materials):
+            idx[material == name] = i
+        unknown = idx < 0
+        if np.any(unknown):
+            raise ValueError(f"unknown material {str(material[unknown][0])!r}; the table "
+                             f"has {self.materials}")
+        return idx
 
     def _queries(self, v0: Any, F: Any, material: Any) -> tuple[np.ndarray, ...]:
         """The queries' v0 [m/s], F [N] and material indices, broadcast and flat, and the
@@ -243,7 +286,7 @@ class Table:
         """
         given = {"v0": registry.real_array("v0", v0), "F": registry.real_array("F", F)}
         if material is not None:
-            given["material"] = np.asarray(material, dtype=object)
+            given["material"] = _names(material)
         check_broadcast(tuple(given), tuple(given.values()))
         shape = np.broadcast_shapes(*(a.shape for a in given.values()))
         flat = {name: np.broadcast_to(a, shape).reshape(-1) for name, a in given.items()}
@@ -444,12 +487,16 @@ def _write_npz(ds: Any, path: Path, variables: list[str], error: dict | None) ->
     # A code that interpolates as Table does needs each axis's spacing (log or linear).
     spacing = {axis: str(ds[axis].attrs.get("spacing", "")) for axis in ("v0", "F")}
     extra = {} if error is None else {"lookup_error": np.array(json.dumps(error))}
+    # The tabulated methods' own error comes on top of the lookup's: their settings (auto's
+    # tol, the integrator's) say how large it is.
+    settings = {v: api.recorded_settings(ds.attrs, v[2:]) for v in variables
+                if v.startswith("e_") and v[2:] in registry.METHODS}
     # Through an open file: given a name, numpy.savez appends ".npz" to one without it.
     with open(path, "wb") as f:
         np.savez(f, material=np.array(_material_names(ds)),
                  v0=ds["v0"].values, F=ds["F"].values, g=ds["g"].values,
                  units=np.array(json.dumps(units)), spacing=np.array(json.dumps(spacing)),
-                 **extra,
+                 settings=np.array(json.dumps(settings, default=str)), **extra,
                  **{n: ds[n].values for n in _MATERIAL_VARIABLES},
                  **{v: ds[v].transpose(*SCENE_DIMS).values for v in variables})
 
@@ -498,8 +545,10 @@ def export(dataset: Any, path: str | os.PathLike, fmt: str | None = None,
         ``m``, ``k``, ``gamma0``, ``alpha``, ``beta``, ``g``, a JSON ``units`` string
         (k and gamma0 whose unit depends on the law: the rule, e.g. ``"N m^-alpha"``), a
         JSON ``spacing`` string (each axis's: ``"log"``, ``"linear"``, ``"irregular"`` or
-        ``"single"``; :class:`Table` interpolates in log v0, log F where ``"log"``) and,
-        given ``error``, ``lookup_error``.
+        ``"single"``; :class:`Table` interpolates in log v0, log F where ``"log"``), a
+        JSON ``settings`` string (each ``e_<method>``'s settings, as the dataset records
+        them: auto's ``tol``, the integrator's ``steps`` or ``tol``; their error adds to
+        the lookup's) and, given ``error``, ``lookup_error``.
 
     Raises
     ------

@@ -378,3 +378,63 @@ def test_the_stated_collapse_bound_names_the_node_that_sets_it(tmp_path):
     err = table.error()
     j = int(np.nonzero(table.v0 == err["where"]["v0"])[0][0])
     assert table.values[0, j, 0] == err["max_abs"] > 0 and table.values[0, j - 1, 0] == 0
+
+
+@pytest.mark.parametrize("axis", ["v0", "F"])
+def test_a_node_given_twice_is_refused_naming_it(axis):
+    # As a dataset joined from two scenes that share a boundary speed or load is.
+    import xarray as xr
+
+    v0, F = np.geomspace(0.01, 10.0, 6), np.array([0.0, 0.5, 1.0])
+    ds = _synthetic(v0, F, np.linspace(0.9, 0.3, 18).reshape(6, 3), log_v0=True)
+    cut = ds[axis].values[2]
+    joined = xr.concat([ds.sel({axis: slice(None, cut)}), ds.sel({axis: slice(cut, None)})],
+                       dim=axis, data_vars="minimal")
+    unit = "m/s" if axis == "v0" else "N"
+    with pytest.raises(ValueError, match=f"{axis} = {cut:g} {unit} is a node twice"):
+        tables.Table(joined)
+    assert tables.Table(joined.drop_duplicates(axis))(0.3, 0.7) == tables.Table(ds)(0.3, 0.7)
+
+
+def test_only_a_query_within_float32_rounding_of_an_end_is_taken_at_it():
+    v0, F = np.geomspace(1e-9, 1e3, 13), np.array([0.0, 0.5])
+    e = np.linspace(0.99, 0.5, 26).reshape(13, 2)
+    table = tables.Table(_synthetic(v0, F, e, log_v0=True))
+    for low in (0.0, 1e-10, 6e-10, 1e-9 * (1 - 3e-7)):     # below the axis, near or far
+        with pytest.raises(ValueError, match=f"v0 = {low!r} is outside the table"):
+            table(low, 0.0)
+    at_ends = table(np.float32([1e-9, 1e3]).astype(np.float64), np.float32([0.0, 0.5]))
+    np.testing.assert_array_equal(at_ends, [e[0, 0], e[-1, -1]])
+    with pytest.raises(ValueError, match="F = nan is not a number"):
+        table(1.0, np.nan)
+
+
+def test_material_names_may_come_as_bytes_or_numpy_strings():
+    rng = np.random.default_rng(5)
+    v0, F = np.geomspace(0.01, 10.0, 7), np.array([0.0, 0.5, 1.0])
+    table = tables.Table(_synthetic(v0, F, rng.uniform(0.1, 0.9, (2, 7, 3)), log_v0=True))
+    vq, fq = rng.uniform(0.01, 10.0, 50), rng.uniform(0.0, 1.0, 50)
+    names = np.array(["a", "b"])[rng.integers(0, 2, 50)]
+    want = table(vq, fq, list(names))
+    np.testing.assert_array_equal(table(vq, fq, names.astype("S")), want)
+    np.testing.assert_array_equal(table(vq, fq, [n.encode() for n in names]), want)
+    np.testing.assert_array_equal(table(vq, fq, "b"), table(vq, fq, ["b"] * 50))
+    with pytest.raises(ValueError, match="unknown material 'c'"):
+        table(vq, fq, np.where(np.arange(50) == 7, "c", names))
+
+
+def test_an_exported_table_says_its_methods_settings_and_is_not_read_as_a_scene(scene,
+                                                                               tmp_path):
+    out = tmp_path / "t.npz"
+    tables.export(scene, out)
+    with np.load(out, allow_pickle=False) as z:
+        settings = json.loads(str(z["settings"]))
+    import xarray as xr
+
+    with xr.open_dataset(scene) as ds:
+        assert settings == {"e_numeric": {k: v for k, v in
+                                          sweep.api.recorded_settings(ds.attrs,
+                                                                      "numeric").items()}}
+        assert "steps" in settings["e_numeric"] or "tol" in settings["e_numeric"]
+    with pytest.raises(ValueError, match="is an exported table, not a scene dataset"):
+        tables.Table(out)
