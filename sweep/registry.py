@@ -31,6 +31,7 @@ import dataclasses
 import enum
 import importlib
 import math
+import sys
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -395,7 +396,11 @@ def _is_int(v: Any) -> bool:
 
 
 def _is_number(v: Any) -> bool:
-    return (_is_int(v) or isinstance(v, (float, np.floating))) and math.isfinite(v)
+    # An int beyond double precision (10**400) is no number here: math.isfinite raised
+    # OverflowError on it, naming no option.
+    if _is_int(v):
+        return abs(int(v)) <= sys.float_info.max
+    return isinstance(v, (float, np.floating)) and math.isfinite(v)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -141,6 +141,11 @@ def _err(text):
     ("beta = [1.0, 1.5]", "beta = [1.0, 0.5]", ["design.beta", ">= 1", "0.5"]),
     ("beta = [1.0, 1.5]", "beta = []", ["design.beta", "empty"]),
     ("beta = [1.0, 1.5]", "beta = [1.5, 1.5]", ["design.beta", "repeat"]),
+    # Stored as given: a coordinate xarray could not slice and CF checkers refused.
+    ("beta = [1.0, 1.5]", "beta = [1.5, 1.0, 1.25]",
+     ["design.beta", "increasing or decreasing order", "sort it", "[1.5, 1.0, 1.25]"]),
+    # Beyond double precision: math.isfinite raised OverflowError, naming no key.
+    ("alpha = 1.5", "alpha = 1" + "0" * 400, ["design.alpha", "must be a number"]),
     ("beta = [1.0, 1.5]", 'beta = "kk"', ["design.beta", "'kk'"]),
     ("start = 0.0, stop = 0.1", "start = -0.1, stop = 0.1", ["design.gamma.start", ">= 0", "-0.1"]),
     ("start = 0.0, stop = 0.1", "start = 0.1, stop = 0.1", ["design.gamma.stop", "> start"]),
@@ -185,6 +190,9 @@ def test_grid_errors_name_key_and_value(old, new, expected):
      ["design.gtilde.min", "> 0", "log"]),
     ("n = 1000", "n = 0", ["design.n", "empty", "0"]),
     ("n = 1000", "n = 2000000000", ["design.n", "2**30"]),
+    # The preflight's sizes overflowed a float before they refused it.
+    ('sampler = "sobol"\nn = 1000', 'sampler = "random"\nn = 1' + "0" * 400,
+     ["design.n", "2**63 - 1"]),
     ('sampler = "sobol"', 'sampler = "halton"', ["design.sampler", "'halton'"]),
     ("seed = 7", "seed = -1", ["design.seed", "-1"]),
     ("seed = 7", "seed = 7\nscramble = 1", ["design.scramble", "true or false"]),
@@ -213,6 +221,7 @@ def test_doe_needs_a_sampled_axis_and_lhs_size_limit():
     ("[integrator]\nsteps = 9223372036854775807",
      ["integrator.steps", "[8, 2**30]", "9223372036854775807"]),
     ("[integrator]\nrest_tol = 0.0", ["integrator.rest_tol", "(0, 1)"]),
+    ("[integrator]\nsteps = 1" + "0" * 400, ["integrator.steps", "[8, 2**30]"]),
     ("[integrator]\nrest_tol = 1e300", ["integrator.rest_tol", "(0, 1)", "1e+300"]),
     ("[integrator]\nmax_steps = 10.5", ["integrator.max_steps", "10.5"]),
     ("[integrator]\nmax_step = 10", ["integrator.max_step", "did you mean 'max_steps'"]),

@@ -136,3 +136,27 @@ def test_unknown_kind_has_no_builder():
 
     with pytest.raises(ValueError, match="lattice"):
         design.build(Spec())
+
+
+@pytest.mark.parametrize("lo, hi", [(1e-200, 1e200), (5e-324, 1.0)])
+def test_a_log_axis_wider_than_a_double_is_still_log_uniform(lo, hi):
+    # hi / lo overflowed to inf: every point came out at hi, and 0 x inf a NaN at x = 0.
+    spec = config.loads(f"""
+[design]
+kind = "doe"
+sampler = "sobol"
+n = 1024
+seed = 1
+scramble = false
+alpha = 1.5
+beta = 1.5
+gamma = {{min = {lo!r}, max = {hi!r}, scale = "log"}}
+gtilde = 0.0
+[outputs]
+e = ["ord1"]
+""").design
+    g = design.build(spec).points(0, 1024)[2]
+    x = qmc.Sobol(1, scramble=False).random(1024)[:, 0]     # gamma alone is sampled
+    want = np.exp(np.log(lo) + x * (np.log(hi) - np.log(lo)))
+    np.testing.assert_allclose(np.log(g), np.log(want), rtol=1e-12, atol=1e-12)
+    assert np.all((g >= lo) & (g <= hi))

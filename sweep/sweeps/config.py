@@ -16,7 +16,7 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     [design]
     kind = "grid"                  # "grid" | "doe" | "scene" (DESIGN_KINDS adds kinds)
     alpha = 1.5                    # grid axis: a number, a list, or a range table:
-    beta = [1.0, 1.5]
+    beta = [1.0, 1.5]              # a list: distinct values, increasing or decreasing
     gamma = {start = 0.0, stop = 0.1, num = 1000}                  # linear by default
     gtilde = {start = 1e-3, stop = 10.0, num = 50, spacing = "log"}
 
@@ -105,6 +105,7 @@ import itertools
 import json
 import math
 import os
+import sys
 from pathlib import Path
 from typing import Any, Callable
 
@@ -142,6 +143,8 @@ SAMPLERS = ("sobol", "lhs", "random")
 SOBOL_MAX_POINTS = 2 ** 30
 #: A Latin hypercube is a global permutation: scipy builds it whole in memory (d x n x 8 B).
 LHS_MAX_POINTS = 2 ** 24
+#: Largest design of any sampler: its points are indexed in int64.
+MAX_DOE_POINTS = 2 ** 63 - 1
 
 DEFAULT_CHUNK_SIZE = 2 ** 17
 
@@ -191,7 +194,11 @@ def is_chunk_size(value: Any) -> bool:
 
 
 def _is_number(v):
-    return (_is_int(v) or isinstance(v, float)) and math.isfinite(v)
+    # An int beyond double precision (10**400) is no number here: math.isfinite raised
+    # OverflowError on it, out of the parser, naming no key.
+    if _is_int(v):
+        return abs(v) <= sys.float_info.max
+    return isinstance(v, float) and math.isfinite(v)
 
 
 class _Table:
@@ -432,6 +439,11 @@ def _grid_list(tab, key, value):
         _check_domain(tab, key, name, v)
     if len(set(float(v) for v in value)) != len(value):
         tab.error(key, "must not repeat a value (coordinates must be unique)", value)
+    steps = np.diff([float(v) for v in value])
+    if not (np.all(steps > 0) or np.all(steps < 0)):
+        # Stored as given, it made a coordinate xarray cannot slice and CF refuses.
+        tab.error(key, "must be in increasing or decreasing order (a coordinate is "
+                       "monotonic): sort it", value)
     return tuple(float(v) for v in value)
 
 
@@ -493,6 +505,11 @@ def _parse_doe(design):
     design.finish()
     if n < 1:
         design.error("n", "must be >= 1 (an empty design)", n)
+    if n > MAX_DOE_POINTS:
+        # Beyond, the preflight's sizes (which refuse above limits.MAX_POINTS without
+        # --force) overflowed a float before they could say so.
+        design.error("n", f"must be <= 2**63 - 1 = {MAX_DOE_POINTS} (points are counted in "
+                          "int64)", n)
     if sampler == "sobol" and n > SOBOL_MAX_POINTS:
         design.error("n", f"must be <= 2**30 = {SOBOL_MAX_POINTS} for the Sobol' sampler", n)
     if sampler == "lhs" and n > LHS_MAX_POINTS:

@@ -195,6 +195,17 @@ class GridDesign(Design):
         return f"grid design {sizes} = {count(self.size, 'point')}"
 
 
+def _log_uniform(lo: float, hi: float, x: np.ndarray) -> np.ndarray:
+    """``lo (hi/lo)^x`` for x in [0, 1]; in logs where ``hi/lo`` is beyond double
+    precision (gamma from 1e-200 to 1e200, or from 5e-324): the ratio's infinity put every
+    point at ``hi`` (and 0 x inf a NaN at x = 0)."""
+    ratio = hi / lo
+    if math.isfinite(ratio):
+        return lo * np.exp(x * math.log(ratio))
+    log_lo = math.log(lo)
+    return np.exp(log_lo + x * (math.log(hi) - log_lo))
+
+
 class DoEDesign(Design):
     """``n`` points of a design of experiments in a box (see the module docstring).
 
@@ -280,7 +291,7 @@ class DoEDesign(Design):
             col = x[:, j]
             j += 1
             if b.scale == "log":
-                v = b.lo * np.exp(col * math.log(b.hi / b.lo))
+                v = _log_uniform(b.lo, b.hi, col)
             else:
                 v = b.lo + (b.hi - b.lo) * col
             # Rounding must not leave the box the configuration promised.
