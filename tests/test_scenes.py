@@ -345,15 +345,17 @@ def test_scene_axes_are_spaced_as_grid_axes(name, axis, spacing):
     assert dict(config.loads(text).design.spacing)[name] == spacing
 
 
-def test_an_unsorted_scene_list_is_written_irregular(tmp_path):
-    # QA2 3: this file said spacing = "linear" for [2.0, 0.5, 1.0, 0.3].
+def test_an_unsorted_scene_list_is_written_sorted_and_irregular(tmp_path):
+    # QA2 3: this file said spacing = "linear" for [2.0, 0.5, 1.0, 0.3]; audit D: stored
+    # in that order, a coordinate that xarray could not slice and CF checkers refused.
     text = SCENE.replace('v0 = {start = 0.1, stop = 5.0, num = 7, spacing = "log"}',
                          "v0 = [2.0, 0.5, 1.0, 0.3]").replace("F = [0.0, 1.0]",
                                                                 "F = [10.0, 0.0, 5.0]")
     out = tmp_path / "uns.nc"
     runner.run(config.loads(text, source="uns.toml"), out, quiet=True)
     with xr.open_dataset(out) as ds:
-        assert list(ds.v0.values) == [2.0, 0.5, 1.0, 0.3]
+        assert list(ds.v0.values) == [0.3, 0.5, 1.0, 2.0]
+        assert list(ds.F.values) == [0.0, 5.0, 10.0]
         assert ds.v0.attrs["spacing"] == "irregular" and ds.F.attrs["spacing"] == "irregular"
 
 

@@ -16,7 +16,7 @@ Layout of a configuration file (all tables but ``[design]`` and ``[outputs]`` op
     [design]
     kind = "grid"                  # "grid" | "doe" | "scene" (DESIGN_KINDS adds kinds)
     alpha = 1.5                    # grid axis: a number, a list, or a range table:
-    beta = [1.0, 1.5]              # a list: distinct values, increasing or decreasing
+    beta = [1.0, 1.5]              # a list: distinct values, stored in increasing order
     gamma = {start = 0.0, stop = 0.1, num = 1000}                  # linear by default
     gtilde = {start = 1e-3, stop = 10.0, num = 50, spacing = "log"}
 
@@ -439,12 +439,10 @@ def _grid_list(tab, key, value):
         _check_domain(tab, key, name, v)
     if len(set(float(v) for v in value)) != len(value):
         tab.error(key, "must not repeat a value (coordinates must be unique)", value)
-    steps = np.diff([float(v) for v in value])
-    if not (np.all(steps > 0) or np.all(steps < 0)):
-        # Stored as given, it made a coordinate xarray cannot slice and CF refuses.
-        tab.error(key, "must be in increasing or decreasing order (a coordinate is "
-                       "monotonic): sort it", value)
-    return tuple(float(v) for v in value)
+    # In increasing order: stored as given, a list out of order made a coordinate that
+    # xarray cannot slice and CF checkers refuse (coordinates are monotonic); the order of
+    # a grid's axis means nothing else.
+    return tuple(sorted(float(v) for v in value))
 
 
 def _axis_spacing(value, values):
