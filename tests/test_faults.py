@@ -134,6 +134,33 @@ def reference(tmp_path_factory):
 
 # --------------------------------------------------------------------------- the lock
 
+def test_a_run_whose_lock_file_was_removed_publishes_nothing(tmp_path, monkeypatch, capsys,
+                                                             reference):
+    # Audit F: a lock file deleted as "stale" let a second run take the output; the first
+    # then published the second's half-written file, exit 0.
+    out = tmp_path / "out.nc"
+    real, calls = runner.compute_chunk, [0]
+
+    def compute(*args):
+        calls[0] += 1
+        if calls[0] == 4:                       # the warm-up, then two chunks
+            store.lock_path(out).unlink()
+            store.OutputLock(out).acquire()     # another process's lock, never released
+        return real(*args)
+
+    monkeypatch.setattr(runner, "compute_chunk", compute)
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 1
+    one_line_error(capsys.readouterr().err, store.lock_path(out),
+                   "was removed during the run", "not published")
+    assert not out.exists() and store.partial_dir(out).is_dir()
+    monkeypatch.setattr(runner, "compute_chunk", real)
+    store.lock_path(out).unlink()               # the other process is gone
+    run(GRID, out)
+    xr.testing.assert_identical(opened(out), reference["grid"])
+
+
 def test_a_second_writer_is_refused_with_the_holders_pid_and_host(tmp_path):
     out = tmp_path / "out.nc"
     with store.OutputLock(out) as lock:

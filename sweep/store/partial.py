@@ -210,6 +210,11 @@ class OutputLock:
             os.close(fd)
         raise LockError(f"cannot lock {self.output}: {self.path} keeps being replaced")
 
+    def still_held(self) -> bool:
+        """True while this object holds the lock on the file at :attr:`path` (False once
+        that file was removed or replaced: another process may then hold the output)."""
+        return self._fh is not None and self._is_current(self._fh.fileno())
+
     def _is_current(self, fd):
         try:
             st = os.stat(self.path)
@@ -402,6 +407,12 @@ class PartialStore:
         "variables": "stored variables",
         "format": "partial-state format",
     }
+
+    @property
+    def lock(self) -> OutputLock | None:
+        """The output's lock this store holds (its own or the caller's; None before
+        :meth:`open` took one)."""
+        return self._lock
 
     @property
     def assembling(self) -> Path:

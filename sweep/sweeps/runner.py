@@ -1248,6 +1248,17 @@ def _timing_attrs(job, totals, scheduler):
     return attrs
 
 
+def _check_still_locked(job, partial):
+    """Refuse to publish when the output's lock file was removed during the run: another
+    run may have taken the output since, deleting this one's assembled file and starting
+    its own, which a commit would then have published half-written, exit 0 (audit F)."""
+    if not _still_ours(partial):
+        raise RunError(f"{partial.lock.path} was removed during the run (a running sweep's "
+                       f"lock is never stale: do not delete it), so another run may be "
+                       f"writing {job.output}; not published: rerun the same command to "
+                       "resume")
+
+
 def _finish(job, partial, writer, behind, totals, scheduler):
     """Step 6: complete the file (timing attributes), publish it atomically, clean up."""
     behind.drain()
@@ -1255,6 +1266,7 @@ def _finish(job, partial, writer, behind, totals, scheduler):
     job.result.chunks = len(job.chunks)
     writer.set_attrs({**_timing_attrs(job, totals, scheduler), **job.result.caveats})
     writer.close()
+    _check_still_locked(job, partial)
     try:
         with _signals_deferred():
             store.commit(partial.assembling, job.output)
@@ -1346,9 +1358,15 @@ def _write_output(job, partial, done, quiet, client, scheduler):
         if writer is not None:
             with contextlib.suppress(Exception):  # a full disk also fails the close
                 writer.close()
-        if not job.result.committed:
+        if not job.result.committed and _still_ours(partial):
             with contextlib.suppress(OSError):
                 partial.assembling.unlink()
+
+
+def _still_ours(partial):
+    """Whether the partial directory is still this run's: not where its lock file was
+    removed, and another run may have taken the output and its own assembled file."""
+    return partial.lock is None or not partial.lock.held or partial.lock.still_held()
 
 
 def _run_locked(job, restart, quiet, force, scheduler, scheduler_timeout, lock):
