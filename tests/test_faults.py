@@ -310,6 +310,28 @@ def test_a_damaged_output_is_not_up_to_date(tmp_path, capsys, reference):
     xr.testing.assert_identical(opened(out), reference["grid"])
 
 
+def test_a_new_title_or_compression_keeps_the_chunks_a_new_value_is_named(tmp_path,
+                                                                          monkeypatch):
+    # Audit F: any edit refused the resume, even writing compress = "fast" (the default)
+    # out, which the run's own hint suggests; the refusal showed two hashes.
+    out = tmp_path / "out.nc"
+    partial = interrupted(GRID, out, 4, monkeypatch)
+    saved = snapshot(partial)
+    edited = GRID.replace('title = "fault test"', 'title = "renamed"').replace(
+        "chunk_size = 10", 'chunk_size = 10\ncompress = "none"')
+    res = run(edited, out)
+    assert res.resumed_chunks == 4 and len(saved) == 5        # four chunks, the manifest
+    fresh = tmp_path / "fresh.nc"
+    run(edited, fresh)
+    xr.testing.assert_identical(opened(out), opened(fresh))
+    with xr.open_dataset(out) as ds:
+        assert ds.attrs["title"] == "renamed" and not ds["e_numeric"].encoding.get("zlib")
+    interrupted(GRID, out, 4, monkeypatch, restart=True)
+    with pytest.raises(store.ResumeError, match=r"different configuration \(design\.gamma\."
+                                                r"stop: 0\.2 there, 0\.3 now\)"):
+        run(OTHER, out)
+
+
 def _rewrite_chunk(path, change):
     """Rewrite a chunk file as a valid npz whose content ``change`` altered."""
     with np.load(path) as z:

@@ -98,6 +98,25 @@ def lock_path(output: str | os.PathLike) -> Path:
     return output.with_name(output.name + ".lock")
 
 
+def _differing_keys(old, new, otherwise, most=3):
+    """The dotted keys of two manifests' configurations whose values differ, each with
+    both values (the first ``most``), or ``otherwise`` where either has none."""
+    if not (isinstance(old, dict) and isinstance(new, dict)):
+        return otherwise
+    found = []
+
+    def walk(a, b, prefix):
+        for k in sorted(set(a) | set(b)):
+            x, y = a.get(k, "absent"), b.get(k, "absent")
+            if isinstance(x, dict) and isinstance(y, dict):
+                walk(x, y, f"{prefix}{k}.")
+            elif x != y:
+                found.append(f"{prefix}{k}: {_short(x)} there, {_short(y)} now")
+
+    walk(old, new, "")
+    return "; ".join(found[:most]) or otherwise
+
+
 def _short(value):
     s = repr(value)   # long enough for a whole numerical stack (sweeps.runner)
     return s if len(s) <= 120 else s[:117] + "..."
@@ -495,10 +514,14 @@ class PartialStore:
     def _check_manifest(self, old):
         for key, what in self._CHECKED.items():
             if old.get(key) != self.manifest.get(key):
+                differ = (f"{key}: {_short(old.get(key))} there, "
+                          f"{_short(self.manifest.get(key))} now")
+                if key == "config_sha256":
+                    differ = _differing_keys(old.get("config"), self.manifest.get("config"),
+                                             differ)
                 raise ResumeError(
                     f"cannot resume {self.output}: the partial results in {self.dir} "
-                    f"were computed with a different {what} ({key}: "
-                    f"{_short(old.get(key))} there, {_short(self.manifest.get(key))} now). "
+                    f"were computed with a different {what} ({differ}). "
                     "Rerun with the configuration and the sweep that wrote them, or with "
                     "--restart to discard them.")
 

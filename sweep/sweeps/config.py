@@ -143,6 +143,10 @@ SAMPLERS = ("sobol", "lhs", "random")
 SOBOL_MAX_POINTS = 2 ** 30
 #: A Latin hypercube is a global permutation: scipy builds it whole in memory (d x n x 8 B).
 LHS_MAX_POINTS = 2 ** 24
+#: Top-level keys of a configuration that the computed values do not depend on: a run
+#: interrupted, then resumed with another title or ``run.compress`` (which the run's own
+#: hint suggests when its writer held it back) keeps its chunks.
+PRESENTATION_KEYS = ("title", "description", "run")
 #: Largest design of any sampler: its points are indexed in int64.
 MAX_DOE_POINTS = 2 ** 63 - 1
 
@@ -1004,7 +1008,12 @@ class Config:
         The TOML text, stored verbatim in the output's global attributes.
     sha256 : str
         Hash of the canonical (parsed, key-sorted) configuration: comments and formatting do
-        not change it, any value does. Resume compares it.
+        not change it, any value does. An existing output is up to date only at the same.
+    computed : str
+        The canonical JSON of what the values depend on: the configuration without
+        :data:`PRESENTATION_KEYS` (the title, the description and the ``[run]`` table, whose
+        chunk size the resume checks apart). Resume compares it, and names the keys that
+        differ; ``values_sha256`` is its hash.
     compress : str
         ``run.compress``: a choice of :data:`sweep.registry.COMPRESSION`, how much a
         computed variable's deflate must save for the file to store it deflated
@@ -1022,6 +1031,12 @@ class Config:
     chunk_size: int
     sha256: str
     compress: str = registry.DEFAULT_COMPRESSION
+    computed: str = ""
+
+    @property
+    def values_sha256(self) -> str:
+        """SHA-256 of :attr:`computed`."""
+        return hashlib.sha256(self.computed.encode()).hexdigest()
 
     @property
     def size(self):
@@ -1073,10 +1088,13 @@ def loads(text, source=""):
     if "compress" in data.get("run", {}):   # true and "small" are one configuration
         data = {**data, "run": {**data["run"], "compress": compress}}
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
+    computed = {k: v for k, v in data.items() if k not in PRESENTATION_KEYS}
     return Config(text=text, source=str(source), title=title, description=description,
                   design=design_spec, outputs=outputs, integrator=integrator, options=options,
                   chunk_size=chunk_size, compress=compress,
-                  sha256=hashlib.sha256(canonical.encode()).hexdigest())
+                  sha256=hashlib.sha256(canonical.encode()).hexdigest(),
+                  computed=json.dumps(computed, sort_keys=True, separators=(",", ":"),
+                                      default=str))
 
 
 def _parse_toml(text, source):

@@ -64,6 +64,7 @@ import datetime as _dt
 import errno
 import functools
 import hashlib
+import json
 import importlib.metadata
 import os
 import platform
@@ -976,7 +977,10 @@ def _plan_chunks(job):
     depend on."""
     job.chunks = _design.Chunks(job.design.size, job.chunk_size)
     return {
-        "config_sha256": job.cfg.sha256,
+        # What the values depend on (not the title nor the [run] table: the chunk size
+        # is checked below), and its keys, which a refusal names where they differ.
+        "config_sha256": job.cfg.values_sha256,
+        "config": json.loads(job.cfg.computed),
         "sweep_version": __version__,
         "sweep_source_sha256": source_sha256(),
         "numerical_stack": numerical_stack(),
