@@ -1115,3 +1115,15 @@ def test_the_memory_a_chunk_may_take_is_the_containers_where_that_is_lower(tmp_p
     assert preflight.physical_memory() == host                  # v2 says: no limit
     v2.write_text("1073741824\n")
     assert preflight.physical_memory() == min(host, 2 ** 30)
+
+
+def test_an_output_name_that_is_not_utf8_is_refused_before_anything_is_written(tmp_path,
+                                                                               capsys):
+    # Audit F: netCDF-C raised UnicodeEncodeError ("unexpected"), past the lock and the
+    # partial directory, which stayed behind.
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    out = tmp_path / os.fsdecode(b"bad\xff.nc")
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 1
+    one_line_error(capsys.readouterr().err, "the output path is not valid UTF-8")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.toml"]

@@ -746,6 +746,12 @@ def _check_output_path(output):
             f"are not written: use e.g. -o {output.with_suffix('.nc').name}")
     if output.is_dir():
         raise RunError(f"{output} is a directory; give the output file name with -o")
+    try:
+        str(output.absolute()).encode("utf-8")
+    except UnicodeEncodeError:
+        # netCDF-C takes UTF-8 names: it raised past the lock and the partial directory.
+        raise RunError(f"{ascii(str(output))}: the output path is not valid UTF-8; "
+                       "rename it or choose another -o") from None
     if output.exists() and not output.is_file():
         raise RunError(f"{output} exists and is not a regular file; choose another -o")
     _check_parent_is_a_directory(output)
