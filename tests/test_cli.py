@@ -507,7 +507,17 @@ def test_validate_refuses_an_existing_output_run_would_not_overwrite(cfg, tmp_pa
     assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 0
     cfg.write_text(CONFIG.replace("steps = 16", "steps = 17"))
     assert "different configuration" in _validate_refuses_as_run_does(cfg, out, capsys)
-    out.write_text("not a sweep output\n")
+    cfg.write_text(CONFIG)
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet", "--restart"]) == 0
+    out.write_bytes(out.read_bytes()[:1000])        # truncated (audit F: "not a sweep output")
+    assert "cannot be read as netCDF (damaged, truncated" in _validate_refuses_as_run_does(
+        cfg, out, capsys)
+    out.write_text("notes\n")
+    assert "cannot be read as netCDF" in _validate_refuses_as_run_does(cfg, out, capsys)
+    import netCDF4
+
+    out.unlink()
+    netCDF4.Dataset(out, "w").close()               # netCDF, but no sweep's
     assert "is not a sweep output" in _validate_refuses_as_run_does(cfg, out, capsys)
 
 

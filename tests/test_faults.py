@@ -1127,3 +1127,26 @@ def test_an_output_name_that_is_not_utf8_is_refused_before_anything_is_written(t
     assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 1
     one_line_error(capsys.readouterr().err, "the output path is not valid UTF-8")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.toml"]
+
+
+def test_a_failed_publication_names_the_output_and_keeps_the_chunks(tmp_path, monkeypatch,
+                                                                    capsys, reference):
+    # Audit F: the rename onto the output failed (another file system, a read-only
+    # directory) and the message named the partial directory's assembling.nc.
+    out = tmp_path / "out.nc"
+    real = os.replace
+
+    def replace(src, dst):
+        if Path(dst) == out:
+            raise OSError(errno.EXDEV, "Invalid cross-device link", str(src), None, str(dst))
+        return real(src, dst)
+
+    monkeypatch.setattr(os, "replace", replace)
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 1
+    one_line_error(capsys.readouterr().err, f"cannot write {out}: Invalid cross-device link",
+                   "kept")
+    monkeypatch.setattr(os, "replace", real)
+    assert not out.exists() and run(GRID, out).resumed_chunks > 0
+    xr.testing.assert_identical(opened(out), reference["grid"])

@@ -959,7 +959,8 @@ def _output_is_current(job):
         _check_intact(output)
         return True
     what = ("was made by a different configuration or version of sweep" if attrs
-            else "is not a sweep output")
+            else "is not a sweep output" if attrs is not None
+            else "cannot be read as netCDF (damaged, truncated or not a netCDF file)")
     # Worded for both fronts: sweep.run(out=...) meets these too.
     raise store.ResumeError(f"{output} exists and {what}; use --restart (restart=True) to "
                             "overwrite it, or choose another output with -o (out=)")
@@ -1325,7 +1326,9 @@ def _write_failure(job, partial, exc):
     if _disk_is_full(exc, partial.dir):
         return RunError(f"{_full_disk_text(exc, partial.dir)}; {keep} once space is freed")
     if isinstance(exc, OSError):
-        return RunError(f"cannot write {exc.filename or partial.dir}: "
+        # A rename's second name is where it failed to put the file (the output itself,
+        # on another file system or in a read-only directory).
+        return RunError(f"cannot write {exc.filename2 or exc.filename or partial.dir}: "
                         f"{exc.strerror or exc}; {keep}")
     if isinstance(exc, RuntimeError) and str(exc).startswith("NetCDF"):
         return RunError(f"cannot write {partial.assembling}: {exc}; {keep}")
