@@ -362,7 +362,7 @@ def test_existing_output_is_kept_or_refused(tmp_path):
     assert opened(out).attrs["integrator_steps"] == 20.0
     junk = tmp_path / "junk.nc"
     junk.write_text("not netCDF")
-    with pytest.raises(store.ResumeError, match="not a sweep output"):
+    with pytest.raises(store.ResumeError, match="cannot be read as netCDF"):
         run(GRID, junk)
 
 
