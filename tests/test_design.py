@@ -160,3 +160,13 @@ e = ["ord1"]
     want = np.exp(np.log(lo) + x * (np.log(hi) - np.log(lo)))
     np.testing.assert_allclose(np.log(g), np.log(want), rtol=1e-12, atol=1e-12)
     assert np.all((g >= lo) & (g <= hi))
+
+
+def test_a_sobol_design_says_when_its_size_is_not_a_power_of_two():
+    assert "not a power of 2: balanced for its first 512)" in design.build(
+        doe("sobol", n=1000)).describe()
+    assert "power of 2" not in design.build(doe("sobol", n=1024)).describe()
+    assert "power of 2" not in design.build(doe("random", n=1000)).describe()
+    unscrambled = design.build(doe("sobol", n=16, extra="scramble = false")).describe()
+    assert unscrambled.startswith("unscrambled sobol design of 16 points") and "seed" not in \
+        unscrambled
