@@ -87,7 +87,7 @@ def _material_names(ds: Any) -> list[str]:
     ``material`` coordinate itself in files written before it (which held the names)."""
     names = ds[registry.MATERIAL_NAME] if registry.MATERIAL_NAME in ds.variables \
         else ds["material"]
-    return [str(m) for m in names.values]
+    return [str(m) for m in _names(names.values).reshape(-1)]
 
 
 def _unit(ds: Any, name: str) -> str:
@@ -137,6 +137,13 @@ def _default_variable(ds: Any) -> str:
 #: Queries interpolated together: the work arrays stay bounded (tens of bytes a query)
 #: however many queries a call has (Table.error's held-back points are 16 times the table).
 _BLOCK = 1 << 16
+
+
+def _end_slack(end: float, other: float) -> float:
+    """How far outside an axis's ``end`` a query is still taken at it: :data:`END_ROUNDING`
+    of the end, or where the end is 0 (a scene's F), of the axis's other end (a load
+    computed as 0.3 - 0.1 - 0.2 = -2.8e-17 N)."""
+    return END_ROUNDING * abs(end if end != 0.0 else other)
 
 
 def _names(material: Any) -> np.ndarray:
@@ -251,7 +258,7 @@ class Table:
             raise ValueError(f"{axis} = nan is not a number")
         nodes = getattr(self, axis)
         lo, hi = nodes[0], nodes[-1]
-        bad = ~((q >= lo - END_ROUNDING * abs(lo)) & (q <= hi + END_ROUNDING * abs(hi)))
+        bad = ~((q >= lo - _end_slack(lo, hi)) & (q <= hi + _end_slack(hi, lo)))
         if np.any(bad):
             raise ValueError(f"{axis} = {float(q[bad][0])!r} is outside the table "
                              f"[{lo:g}, {hi:g}]")

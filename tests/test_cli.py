@@ -530,7 +530,8 @@ def test_validate_refuses_saved_chunks_run_would_not_resume(cfg, tmp_path, capsy
     partial.open()
     partial.release()
     said = _validate_refuses_as_run_does(cfg, out, capsys)
-    assert said.startswith(f"cannot resume {out}") and "different configuration" in said
+    # (its manifest names no sweep version either, which is checked first)
+    assert said.startswith(f"cannot resume {out}") and "computed with a different" in said
 
 
 def test_validate_refuses_a_missing_gpu_before_its_estimate(cfg, tmp_path, capsys,

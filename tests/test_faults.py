@@ -140,12 +140,15 @@ def test_a_run_whose_lock_file_was_removed_publishes_nothing(tmp_path, monkeypat
     # then published the second's half-written file, exit 0.
     out = tmp_path / "out.nc"
     real, calls = runner.compute_chunk, [0]
+    theirs = store.partial_dir(out) / "assembling.nc"
 
     def compute(*args):
         calls[0] += 1
         if calls[0] == 4:                       # the warm-up, then two chunks
             store.lock_path(out).unlink()
             store.OutputLock(out).acquire()     # another process's lock, never released
+            theirs.unlink()                     # which replaced the assembled file
+            theirs.write_bytes(b"the other run's")
         return real(*args)
 
     monkeypatch.setattr(runner, "compute_chunk", compute)
@@ -154,7 +157,7 @@ def test_a_run_whose_lock_file_was_removed_publishes_nothing(tmp_path, monkeypat
     assert cli.main(["run", str(cfg), "-o", str(out), "--quiet"]) == 1
     one_line_error(capsys.readouterr().err, store.lock_path(out),
                    "was removed during the run", "not published")
-    assert not out.exists() and store.partial_dir(out).is_dir()
+    assert not out.exists() and theirs.read_bytes() == b"the other run's"
     monkeypatch.setattr(runner, "compute_chunk", real)
     store.lock_path(out).unlink()               # the other process is gone
     run(GRID, out)
@@ -318,7 +321,8 @@ def test_a_new_title_or_compression_keeps_the_chunks_a_new_value_is_named(tmp_pa
     partial = interrupted(GRID, out, 4, monkeypatch)
     saved = snapshot(partial)
     edited = GRID.replace('title = "fault test"', 'title = "renamed"').replace(
-        "chunk_size = 10", 'chunk_size = 10\ncompress = "none"')
+        "chunk_size = 10", 'chunk_size = 10\ncompress = "none"').replace(
+        "steps = 16", "steps = 16.0")                        # the same number
     res = run(edited, out)
     assert res.resumed_chunks == 4 and len(saved) == 5        # four chunks, the manifest
     fresh = tmp_path / "fresh.nc"

@@ -30,8 +30,8 @@ import math
 from sweep.kernels._jit import jit
 from sweep.kernels.contact import potential, well_depth
 
-__all__ = ["q_error", "swing2", "swing_of", "defect_share", "rebound_share", "coarse_room", "KAPPA_Q",
-           "KAPPA_STEPS", "COARSE_STEPS", "ROUNDING", "PATH_WEIGHT", "REBOUND_SHARE"]
+__all__ = ["q_error", "swing2", "swing_of", "defect_share", "rebound_share", "coarse_room",
+           "KAPPA_Q", "KAPPA_STEPS", "COARSE_STEPS", "ROUNDING", "PATH_WEIGHT", "REBOUND_SHARE"]
 
 #: Global error of q per unit of the summed embedded local error estimates of the
 #: dissipation integral: a conservative factor at resolutions up to KAPPA_STEPS (the

@@ -413,18 +413,20 @@ class PartialStore:
         self.discarded = 0
 
     # The manifest keys whose mismatch refuses a resume, with a human description.
+    # The sweep and its libraries first: a partial directory of another version holds
+    # another manifest's configuration too, which is not what the user changed.
     _CHECKED = {
-        "config_sha256": "configuration",
+        "format": "partial-state format",
         "sweep_version": "sweep version",
         "sweep_source_sha256": ("sweep source code or data (the package was edited or "
                                 "reinstalled, or its error model rebuilt)"),
         "numerical_stack": ("numerical libraries (numba, llvmlite, numpy, scipy or the "
                             "vector math library were upgraded, or the run moved)"),
+        "config_sha256": "configuration",
         "output": "output file name",
         "n_points": "number of design points",
         "chunk_size": "chunk size",
         "variables": "stored variables",
-        "format": "partial-state format",
     }
 
     @property

@@ -1035,7 +1035,9 @@ class Config:
 
     @property
     def values_sha256(self) -> str:
-        """SHA-256 of :attr:`computed`."""
+        """SHA-256 of :attr:`computed` (:attr:`sha256` for a Config built without it)."""
+        if not self.computed:
+            return self.sha256
         return hashlib.sha256(self.computed.encode()).hexdigest()
 
     @property
@@ -1088,13 +1090,25 @@ def loads(text, source=""):
     if "compress" in data.get("run", {}):   # true and "small" are one configuration
         data = {**data, "run": {**data["run"], "compress": compress}}
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
-    computed = {k: v for k, v in data.items() if k not in PRESENTATION_KEYS}
+    computed = _canonical_numbers({k: v for k, v in data.items() if k not in PRESENTATION_KEYS})
     return Config(text=text, source=str(source), title=title, description=description,
                   design=design_spec, outputs=outputs, integrator=integrator, options=options,
                   chunk_size=chunk_size, compress=compress,
                   sha256=hashlib.sha256(canonical.encode()).hexdigest(),
                   computed=json.dumps(computed, sort_keys=True, separators=(",", ":"),
                                       default=str))
+
+
+def _canonical_numbers(value):
+    """``value`` with every int a float where that is exact (``steps = 16`` and ``16.0``
+    are one configuration; a seed beyond 2**53 stays as it is)."""
+    if isinstance(value, dict):
+        return {k: _canonical_numbers(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_canonical_numbers(v) for v in value]
+    if _is_int(value) and abs(value) <= 2 ** 53:
+        return float(value)
+    return value
 
 
 def _parse_toml(text, source):

@@ -747,7 +747,7 @@ def _check_output_path(output):
     if output.is_dir():
         raise RunError(f"{output} is a directory; give the output file name with -o")
     try:
-        str(output.absolute()).encode("utf-8")
+        str(output).encode("utf-8")
     except UnicodeEncodeError:
         # netCDF-C takes UTF-8 names: it raised past the lock and the partial directory.
         raise RunError(f"{ascii(str(output))}: the output path is not valid UTF-8; "
@@ -987,7 +987,7 @@ def _plan_chunks(job):
         # What the values depend on (not the title nor the [run] table: the chunk size
         # is checked below), and its keys, which a refusal names where they differ.
         "config_sha256": job.cfg.values_sha256,
-        "config": json.loads(job.cfg.computed),
+        "config": json.loads(job.cfg.computed) if job.cfg.computed else None,
         "sweep_version": __version__,
         "sweep_source_sha256": source_sha256(),
         "numerical_stack": numerical_stack(),
