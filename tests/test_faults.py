@@ -1154,3 +1154,23 @@ def test_a_failed_publication_names_the_output_and_keeps_the_chunks(tmp_path, mo
     monkeypatch.setattr(os, "replace", real)
     assert not out.exists() and run(GRID, out).resumed_chunks > 0
     xr.testing.assert_identical(opened(out), reference["grid"])
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="RLIMIT_FSIZE is POSIX")
+def test_a_file_size_limit_is_named_and_the_chunks_are_kept(tmp_path, reference):
+    # Audit F: `ulimit -f` made HDF5 say only "NetCDF: HDF error".
+    import resource
+
+    cfg, out = tmp_path / "c.toml", tmp_path / "out.nc"
+    cfg.write_text(GRID)
+
+    def limited():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, 20_000))
+
+    done = subprocess.run([sys.executable, "-m", "sweep", "run", str(cfg), "-o", str(out),
+                           "--quiet"], preexec_fn=limited, capture_output=True, text=True)
+    assert done.returncode == 1 and not out.exists()
+    one_line_error(done.stderr, "NetCDF: HDF error", "at most 20,000 bytes: ulimit -f",
+                   "kept")
+    assert run(GRID, out).resumed_chunks > 0
+    xr.testing.assert_identical(opened(out), reference["grid"])

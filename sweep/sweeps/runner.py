@@ -1331,8 +1331,22 @@ def _write_failure(job, partial, exc):
         return RunError(f"cannot write {exc.filename2 or exc.filename or partial.dir}: "
                         f"{exc.strerror or exc}; {keep}")
     if isinstance(exc, RuntimeError) and str(exc).startswith("NetCDF"):
-        return RunError(f"cannot write {partial.assembling}: {exc}; {keep}")
+        return RunError(f"cannot write {partial.assembling}: {exc}{_size_limit_text()}; "
+                        f"{keep}")
     return None
+
+
+def _size_limit_text():
+    """Where this process has a file size limit (``ulimit -f``), which HDF5 reports only
+    as "HDF error", a clause naming it; else ""."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not on POSIX
+        return ""
+    soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    if soft == resource.RLIM_INFINITY:
+        return ""
+    return f" (this process may write files of at most {soft:,} bytes: ulimit -f)"
 
 
 def _write_output(job, partial, done, quiet, client, scheduler):
