@@ -45,7 +45,7 @@ __all__ = ["Status", "Parameter", "PARAMETERS", "PARAMETER_NAMES", "PHYSICAL", "
            "approximations", "composites", "method_fields", "integrator_fields",
            "kernel_fields", "variable_names", "REPORT", "CHEBYSHEV_N_MAX", "DEVICES",
            "MAX_STEP_BUDGET", "MIN_STEPS", "misses_tol", "MISSED", "COMPRESSION",
-           "DEFAULT_COMPRESSION"]
+           "DEFAULT_COMPRESSION", "is_number"]
 
 #: The report every equation number refers to.
 REPORT = ("A. Chatterjee, G. James, B. Brogliato, Approximate analytical coefficient of "
@@ -395,9 +395,10 @@ def _is_int(v: Any) -> bool:
     return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
 
 
-def _is_number(v: Any) -> bool:
-    # An int beyond double precision (10**400) is no number here: math.isfinite raised
-    # OverflowError on it, naming no option.
+def is_number(v: Any) -> bool:
+    """Whether ``v`` is a finite real number: a Python or numpy int or float, not a bool.
+    An int beyond double precision (10**400) is not: ``math.isfinite`` raised OverflowError
+    on it, naming no key (configurations and options alike)."""
     if _is_int(v):
         return abs(int(v)) <= sys.float_info.max
     return isinstance(v, (float, np.floating)) and math.isfinite(v)
@@ -541,19 +542,19 @@ _BUDGET_POWER = 30
 MAX_STEP_BUDGET = 2 ** _BUDGET_POWER
 
 _INTEGRATOR_OPTIONS = (
-    Option("tol", None, lambda v: _is_number(v) and v > 0,
+    Option("tol", None, lambda v: is_number(v) and v > 0,
            "a number > 0 (the largest abs error of e wanted: the resolution comes from the "
            "integrator's calibrated error model, and points above it are refined)"),
-    Option("steps", 96.0, lambda v: _is_number(v) and MIN_STEPS <= v <= MAX_STEP_BUDGET,
+    Option("steps", 96.0, lambda v: is_number(v) and MIN_STEPS <= v <= MAX_STEP_BUDGET,
            f"a number in [{MIN_STEPS}, 2**{_BUDGET_POWER}] (steps per half period of the "
            "stiffest linearised motion; a march takes about as many, and no step budget is "
            f"larger; e_err is calibrated from {MIN_STEPS} up)"),
     # A scaled state is in units of the impact (u'(0) = 1): from rest_tol = 1 on, every
     # loaded point is "at rest" before it moves, a silent e = 0.
-    Option("rest_tol", 1e-8, lambda v: _is_number(v) and 0 < v < 1,
+    Option("rest_tol", 1e-8, lambda v: is_number(v) and 0 < v < 1,
            "a number in (0, 1) (rest criterion of the report, Sec. 3, in units of the "
            "impact speed: max(|u - u-bar|, |v|) < rest_tol ends a point at rest, e = 0)"),
-    Option("max_steps", 200_000, lambda v: _is_number(v) and 1 <= v <= MAX_STEP_BUDGET
+    Option("max_steps", 200_000, lambda v: is_number(v) and 1 <= v <= MAX_STEP_BUDGET
            and float(v).is_integer(),
            f"an integer in [1, 2**{_BUDGET_POWER}] (step budget per point, every march "
            "included)", int),
@@ -790,7 +791,7 @@ def variable_names(methods: tuple[str, ...], fields: tuple[str, ...]) -> tuple[s
 #: built-in methods in their stable order; stored in datasets, never renumber them.
 SERVED_BY: dict[str, int] = {name: code for code, name in enumerate(METHODS)}
 
-_AUTO_TOL = Option("tol", 1e-6, lambda v: _is_number(v) and v > 0,
+_AUTO_TOL = Option("tol", 1e-6, lambda v: is_number(v) and v > 0,
                    "a number > 0 (largest acceptable abs error on e)")
 
 METHODS["auto"] = Method(

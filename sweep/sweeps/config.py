@@ -105,7 +105,6 @@ import itertools
 import json
 import math
 import os
-import sys
 from pathlib import Path
 from typing import Any, Callable
 
@@ -198,11 +197,8 @@ def is_chunk_size(value: Any) -> bool:
 
 
 def _is_number(v):
-    # An int beyond double precision (10**400) is no number here: math.isfinite raised
-    # OverflowError on it, out of the parser, naming no key.
-    if _is_int(v):
-        return abs(v) <= sys.float_info.max
-    return isinstance(v, float) and math.isfinite(v)
+    # TOML's own types only (a Python dict configuration too): registry.is_number's rule.
+    return isinstance(v, (int, float)) and registry.is_number(v)
 
 
 class _Table:
