@@ -424,7 +424,7 @@ class Table:
             number), ``collapse_bound``, ``variable``.
         """
         idx, v, f = self.held_back_points()
-        names = np.array(self.materials, dtype=object)[idx]
+        names = np.array(self.materials)[idx]   # str: resolved without a Python loop
         d = np.abs(self(v, f, names) - self.direct(v, f, names))
         d = np.where(np.isnan(d), np.inf, d)  # an invalid point is no agreement
         corners, offsets = self._cell_corners()
