@@ -1,6 +1,7 @@
 """The kernel cache key (every package module a kernel imports, whatever the import form) and
 the compile-time settings of :mod:`sweep.kernels._jit`."""
 import gc
+import operator
 import shutil
 import subprocess
 import sys
@@ -567,3 +568,172 @@ def test_ssa_reconstruction_rewrites_only_the_blocks_naming_each_variable(monkey
     elsewhere = ssa._run_ssa(compiler.run_frontend(_branchy).blocks)
     assert _ssa_dump(elsewhere) == _ssa_dump(own)
     assert len(visits) - n_own - n_narrowed == n_own
+
+
+def _loops(a, n):
+    total = 0.0
+    i = 0
+    while i < n:
+        j = 0
+        while j < i:
+            if a[j] < 0.0:
+                break
+            total += a[j] * j
+            j += 1
+        else:
+            total -= 1.0
+        if total > 1e3:
+            return total
+        i += 1
+    return total * 2.0
+
+
+def _random_cfg(rng, n_blocks, n_names):
+    """A numba CFG of ``n_blocks`` blocks (forward edges and some back edges, every block
+    reachable from the entry) with random use and def sets over ``n_names`` names."""
+    from numba.core.controlflow import CFGraph
+
+    cfg = CFGraph()
+    for label in range(n_blocks):
+        cfg.add_node(label)
+    for label in range(1, n_blocks):
+        cfg.add_edge(int(rng.integers(0, label)), label)
+    for _ in range(n_blocks):
+        a, b = sorted(rng.integers(0, n_blocks, 2))
+        cfg.add_edge(int(b), int(a))       # a back edge (or a self loop)
+    cfg.set_entry_point(0)
+    cfg.process()
+    names = [f"v{i}" for i in range(n_names)]
+
+    def some():
+        return {names[i] for i in rng.integers(0, n_names, rng.integers(0, 6))}
+    return cfg, dict.fromkeys(range(n_blocks)), {b: some() for b in range(n_blocks)}, {
+        b: some() for b in range(n_blocks)}
+
+
+def _numba_live_map():
+    from numba.core import analysis
+    return getattr(analysis.compute_live_map, "__wrapped__", analysis.compute_live_map)
+
+
+def test_live_variables_on_bit_sets_are_numba_s_own():
+    """The live variables found on bit sets (``sweep.kernels._numba_ir``) are those of
+    numba's own ``compute_live_map``, block for block, in the same order of blocks: on the
+    IR of Python functions with loops, breaks and early returns, on a package kernel's
+    IR, and on random graphs with back edges and self loops."""
+    from numba.core import analysis, compiler
+
+    from sweep.kernels import _numba_ir, lanes
+    numba_live_map = _numba_live_map()
+    for fn in (_branchy, _loops, lanes.march_lanes.py_func):
+        blocks = compiler.run_frontend(fn).blocks
+        cfg = analysis.compute_cfg_from_blocks(blocks)
+        usedefs = analysis.compute_use_defs(blocks)
+        own = numba_live_map(cfg, blocks, usedefs.usemap, usedefs.defmap)
+        ours = _numba_ir.compute_live_map(cfg, blocks, usedefs.usemap, usedefs.defmap)
+        assert list(ours) == list(own) and ours == own
+        assert any(own.values())
+    rng = np.random.default_rng(7)
+    for n_blocks, n_names in [(1, 3), (2, 1), (8, 5), (40, 30), (200, 120)] * 4:
+        cfg, blocks, use, defs = _random_cfg(rng, n_blocks, n_names)
+        own = numba_live_map(cfg, blocks, use, defs)
+        assert _numba_ir.compute_live_map(cfg, blocks, use, defs) == own
+
+
+def test_package_compiles_find_live_variables_on_bit_sets(monkeypatch):
+    """While a package kernel compiles, numba's post-processor finds live variables on bit
+    sets (``_jit._liveness_on_bit_sets``); other code's compiles run numba's own."""
+    from numba.core import analysis
+
+    from sweep.kernels import _numba_ir
+    if not _jit._liveness_on_bit_sets():
+        pytest.skip("numba's compute_live_map is not one LIVE_MAP_SOURCES knows")
+    calls = []
+    ours = _numba_ir.compute_live_map
+    monkeypatch.setattr(_numba_ir, "compute_live_map", lambda *a: calls.append(a) or ours(*a))
+    cfg, blocks, use, defs = _random_cfg(np.random.default_rng(1), 20, 10)
+    monkeypatch.setattr(_jit._COLLECTOR, "_nest", ["a package kernel"])
+    inside = analysis.compute_live_map(cfg, blocks, use, defs)
+    assert len(calls) == 1
+    monkeypatch.setattr(_jit._COLLECTOR, "_nest", [])      # other code's compile
+    outside = analysis.compute_live_map(cfg, blocks, use, defs)
+    assert len(calls) == 1 and inside == outside
+
+
+@pytest.mark.parametrize("release", ["0.68.0", "0.69.0"])
+def test_live_variables_on_bit_sets_keep_out_of_other_releases(release):
+    module = types.SimpleNamespace(compute_live_map=_numba_live_map())
+    assert not _jit._bit_sets_in(module, release)
+    assert module.compute_live_map is _numba_live_map()
+
+
+def _numba_rec_list_vars():
+    from numba.core import ir
+    return getattr(ir.Inst._rec_list_vars, "__wrapped__", ir.Inst._rec_list_vars)
+
+
+def _stmt_vars(stmts):
+    return [[id(v) for v in s.list_vars()] for s in stmts]
+
+
+def test_instruction_variables_are_numba_s_own(monkeypatch):
+    """The variables an instruction names (``_numba_ir.vars_in``) are numba's own
+    ``list_vars``, the same objects in the same order: every statement of the IR of
+    Python functions and of a package kernel, and calls whose arguments nest variables
+    in lists, tuples and dicts among other values."""
+    from numba.core import compiler, ir
+
+    from sweep.kernels import _numba_ir, lanes
+    loc = ir.Loc("f", 1)
+    scope = ir.Scope(None, loc)
+    a, b, c, f = (ir.Var(scope, name, loc) for name in "abcf")
+    nested = [ir.Expr.call(f, [a, b], [("k", c), ("j", a)], loc),
+              ir.Expr.build_tuple([a, ir.Expr.binop(operator.add, b, c, loc)], loc),
+              ir.Assign(ir.Expr.call(f, (), {}, loc), c, loc),
+              ir.SetItem(a, b, c, loc), ir.Del("a", loc), ir.Return(a, loc)]
+    nested[0]._kws["extra"] = {"x": [(b, 1.0, "s"), {c}], "y": ir.Const(2, loc)}
+    stmts = nested + [s for fn in (_branchy, _loops, lanes.march_lanes.py_func)
+                      for block in compiler.run_frontend(fn).blocks.values()
+                      for s in block.body]
+    plain = _numba_rec_list_vars()
+    monkeypatch.setattr(ir.Inst, "_rec_list_vars", plain)
+    own = _stmt_vars(stmts)
+    values = (a, 3.0, None, [], (a, [b, (c,)]), {"k": {"j": a}}, nested[2])
+    own_values = [nested[4]._rec_list_vars(value) for value in values]
+    kinds = _numba_ir.Kinds(ir.Var, ir.Inst)
+    monkeypatch.setattr(ir.Inst, "_rec_list_vars",
+                        lambda self, value: _numba_ir.vars_in(value, kinds))
+    assert _stmt_vars(stmts) == own
+    assert own[0] == [id(v) for v in (f, a, b, c, a, b)]
+    assert [_numba_ir.vars_in(value, kinds) for value in values] == own_values
+    assert own_values[4] == [a, b, c]
+    assert sum(map(len, own)) > 300
+
+
+def test_package_compiles_list_instruction_variables_quickly(monkeypatch):
+    """While a package kernel compiles, ``Inst.list_vars`` walks an instruction with
+    ``_numba_ir.vars_in`` (``_jit._quick_instruction_vars``); other code's compiles walk it
+    with numba's own."""
+    from numba.core import ir
+
+    from sweep.kernels import _numba_ir
+    if not _jit._quick_instruction_vars():
+        pytest.skip("numba's Inst._rec_list_vars is not one LIST_VARS_SOURCES knows")
+    calls = []
+    ours = _numba_ir.vars_in
+    monkeypatch.setattr(_numba_ir, "vars_in", lambda *a: calls.append(a) or ours(*a))
+    loc = ir.Loc("f", 1)
+    var = ir.Var(ir.Scope(None, loc), "a", loc)
+    stmt = ir.Assign(ir.Expr.binop(operator.add, var, var, loc), var, loc)
+    monkeypatch.setattr(_jit._COLLECTOR, "_nest", ["a package kernel"])
+    assert stmt.list_vars() == [var, var, var] and len(calls) == 2
+    monkeypatch.setattr(_jit._COLLECTOR, "_nest", [])      # other code's compile
+    assert stmt.list_vars() == [var, var, var] and len(calls) == 2
+
+
+@pytest.mark.parametrize("release", ["0.68.0", "0.69.0"])
+def test_quick_instruction_variables_keep_out_of_other_releases(release):
+    inst = type("Inst", (), {"_rec_list_vars": _numba_rec_list_vars()})
+    module = types.SimpleNamespace(Inst=inst, Var=object)
+    assert not _jit._quick_vars_in(module, release)
+    assert vars(inst)["_rec_list_vars"] is _numba_rec_list_vars()

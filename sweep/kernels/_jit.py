@@ -23,13 +23,15 @@ once over all it links (:func:`_leave_helpers_unemitted`); an
 operator on scalars is not matched against numpy's ufunc loops first
 (:func:`_scalar_operators_skip_ufuncs`); compile flags hash and compare faster
 (:func:`_quick_flag_comparisons`); numba's SSA reconstruction rewrites, for each variable,
-only the blocks that name it (:func:`_ssa_visits_mentioning_blocks`). Each of these patches
+only the blocks that name it (:func:`_ssa_visits_mentioning_blocks`), and finds live
+variables on bit sets (:func:`_liveness_on_bit_sets`) and the variables an instruction
+names with fewer calls (:func:`_quick_instruction_vars`). Each of these patches
 of numba's internals applies to the numba release and sources it was written for only
 (:data:`PATCHED_NUMBA`). A compile that a call from Python starts runs under a frame with a
 chunk of CPython's frame stack to itself (:func:`on_own_chunk`).
 
-Owns: the kernel cache location and the compile-time settings. May import: nothing from
-``sweep``.
+Owns: the kernel cache location and the compile-time settings. May import:
+:mod:`sweep.kernels._numba_ir` only.
 """
 from __future__ import annotations
 
@@ -50,11 +52,14 @@ import numba
 from numba.core import event as _event
 from numba.core.registry import CPUDispatcher
 
+from sweep.kernels import _numba_ir
+
 __all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "package_imports",
            "jit", "cached_jit", "on_own_chunk", "FLAGS", "COMPILE_GC_THRESHOLDS",
            "PATCHED_NUMBA", "INLINE_IR_SOURCES", "INLINE_FUNCTION_SOURCES",
            "EXECUTABLE_SOURCES", "ARRAY_OPERATOR_SOURCES", "TARGET_CONFIG_SOURCES",
-           "SSA_SOURCES", "OWN_CHUNK_SLOTS"]
+           "SSA_SOURCES", "LIVE_MAP_SOURCES", "LIST_VARS_SOURCES",
+           "OWN_CHUNK_SLOTS"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 _PACKAGE = _PACKAGE_DIR.name
@@ -389,6 +394,12 @@ TARGET_CONFIG_SOURCES = frozenset({"4d15a6c75137a983", "6d8774572d07d381", "12a2
 #: (numba 0.68.1's) that :func:`_ssa_visits_mentioning_blocks` narrows to the blocks that
 #: name each variable.
 SSA_SOURCES = frozenset({"c497422bcf049990", "3f183045a5355bf4", "d17efdbed57062bf"})
+#: Sources of numba's ``analysis.compute_live_map`` (0.68.1's) whose fixed point
+#: :func:`_liveness_on_bit_sets` finds on bit sets.
+LIVE_MAP_SOURCES = frozenset({"713c4c094977e93b"})
+#: Sources of numba's ``ir.Inst._rec_list_vars`` (0.68.1's) whose list
+#: :func:`_quick_instruction_vars` finds faster.
+LIST_VARS_SOURCES = frozenset({"054700e9100b6299"})
 
 
 def _known(functions, sources, version) -> bool:
@@ -419,6 +430,8 @@ def _patch_numba() -> None:
     _scalar_operators_skip_ufuncs()
     _quick_flag_comparisons()
     _ssa_visits_mentioning_blocks()
+    _liveness_on_bit_sets()
+    _quick_instruction_vars()
 
 
 class _OneMemo:
@@ -800,3 +813,71 @@ def _blocks_naming(blocks) -> dict:
             for var in stmt.list_vars():
                 named.setdefault(var.name, set()).add(label)
     return named
+
+
+@functools.cache
+def _liveness_on_bit_sets() -> bool:
+    """Let numba find the variables live at each block's entry on bit sets
+    (:func:`sweep.kernels._numba_ir.compute_live_map`: the same sets), while one of this
+    package's dispatchers compiles; True where it does.
+
+    numba's IR post-processor recomputes them after nearly every pass and inlined call
+    site, with set unions that copy thousands of names: 2,367 times and 1.3 s in the
+    first ``sweep.cor()``, 0.3 s on bit sets (docs/speed/history.md, 2026-12-07).
+    Applied to the sources in :data:`LIVE_MAP_SOURCES` of the releases in
+    :data:`PATCHED_NUMBA`; numba's own compiles, and its parfors (which import the
+    function by name), keep numba's.
+    """
+    from numba.core import analysis                       # noqa: PLC0415 -- numba internals
+
+    return _bit_sets_in(analysis, numba.__version__)
+
+
+def _bit_sets_in(analysis, version) -> bool:
+    """Replace ``analysis.compute_live_map`` where numba ``version`` and its source are
+    those :data:`LIVE_MAP_SOURCES` knows; True where it does."""
+    plain = getattr(analysis, "compute_live_map", None)
+    if not _known([plain], LIVE_MAP_SOURCES, version):
+        return False
+
+    @functools.wraps(plain)
+    def compute_live_map(cfg, blocks, var_use_map, var_def_map):
+        if _COLLECTOR.depth == 0:
+            return plain(cfg, blocks, var_use_map, var_def_map)
+        return _numba_ir.compute_live_map(cfg, blocks, var_use_map, var_def_map)
+    analysis.compute_live_map = compute_live_map
+    return True
+
+
+@functools.cache
+def _quick_instruction_vars() -> bool:
+    """Let numba list the variables an IR instruction names with fewer calls and type
+    tests (:func:`sweep.kernels._numba_ir.vars_in`: the same list), while one of this
+    package's dispatchers compiles; True where it does.
+
+    ``Inst.list_vars`` walks an instruction's attributes recursively, four ``isinstance``
+    tests and a call per value: 3 million calls in the first ``sweep.cor()``, for its
+    use-def and live-variable analyses, SSA and ``del`` placement. Applied to the source in
+    :data:`LIST_VARS_SOURCES` of the releases in :data:`PATCHED_NUMBA`.
+    """
+    from numba.core import ir                             # noqa: PLC0415 -- numba internals
+
+    return _quick_vars_in(ir, numba.__version__)
+
+
+def _quick_vars_in(ir, version) -> bool:
+    """Replace ``ir.Inst._rec_list_vars`` (of the module ``ir``) where numba ``version``
+    and its source are those :data:`LIST_VARS_SOURCES` knows; True where it does."""
+    plain = getattr(getattr(ir, "Inst", None), "_rec_list_vars", None)
+    if not _known([plain], LIST_VARS_SOURCES, version):
+        return False
+    kinds = _numba_ir.Kinds(ir.Var, ir.Inst)
+
+    @functools.wraps(plain)
+    def _rec_list_vars(self, val):
+        # The nest itself, not the depth property: this runs 3 million times a compile.
+        if not _COLLECTOR._nest:
+            return plain(self, val)
+        return _numba_ir.vars_in(val, kinds)
+    ir.Inst._rec_list_vars = _rec_list_vars
+    return True
