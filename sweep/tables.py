@@ -58,7 +58,8 @@ from sweep._arrays import check_broadcast
 from sweep._format import naming
 from sweep.model import scale
 
-__all__ = ["Table", "lookup", "export", "SCENE_DIMS", "HELD_BACK_FRACTIONS"]
+__all__ = ["Table", "lookup", "export", "SCENE_DIMS", "HELD_BACK_FRACTIONS",
+           "COLLAPSE_CHOICES"]
 
 #: Dimensions of a scene dataset (sweep.sweeps.design.SceneDesign).
 SCENE_DIMS = ("material", "v0", "F")
@@ -69,6 +70,9 @@ HELD_BACK_FRACTIONS = (0.25, 0.5, 0.75)
 #: 0.009999999776...), far below any table's interpolation error.
 END_ROUNDING = 1.2e-7
 _MATERIAL_VARIABLES = ("m", "k", "gamma0", "alpha", "beta")
+#: What :class:`Table` does with a query in a collapse cell: interpolate it (within the
+#: collapse bound), or compute it directly.
+COLLAPSE_CHOICES = ("interpolate", "direct")
 
 
 def _open(dataset: Any) -> Any:
@@ -214,6 +218,7 @@ class Table:
         #: The nodes' coordinates along each axis (log where the axis is), formed once.
         self._nodes = {axis: self._coord(axis, getattr(self, axis)) for axis in ("v0", "F")}
         self._F_pieces = self._pchip_along_F()
+        self._collapse = _collapsing(self._cell_corners()[0])
 
     def _refuse_missing_nodes(self) -> None:
         """Raise ``ValueError`` naming the first node without a value: the PCHIP of every
@@ -319,31 +324,62 @@ class Table:
                             i, self._coord("v0", vq), self._coord("F", fq), out)
         return out
 
-    def __call__(self, v0: Any, F: Any = None, material: Any = None) -> np.ndarray | float:
+    def __call__(self, v0: Any, F: Any = None, material: Any = None,
+                 collapse: str = "interpolate") -> np.ndarray | float:
         """Interpolated e [1] at impact speeds v0 [m/s] and loads F [N] (broadcast; a float
         where all are scalars, as :func:`sweep.cor` gives).
 
         ``F`` may be omitted when the table has one load, ``material`` when it has one
-        material.
+        material. ``collapse="direct"`` computes the queries in a collapse cell
+        (:meth:`collapsing`) directly (:meth:`direct`) instead of interpolating them:
+        there the interpolant is only within ``error()["collapse_bound"]``, while the rest
+        of the table is within ``error()["away_max_abs"]``.
 
         Raises
         ------
         ValueError
             v0 or F not real numbers (a string is not parsed) or outside the table, shapes
-            that do not broadcast (naming v0, F, material), a missing or unknown material.
+            that do not broadcast (naming v0, F, material), a missing or unknown material,
+            a ``collapse`` other than ``"interpolate"`` or ``"direct"``.
         """
+        if collapse not in COLLAPSE_CHOICES:
+            raise ValueError(f"collapse = {collapse!r}: must be one of "
+                             f"{', '.join(map(repr, COLLAPSE_CHOICES))}")
+        vq, fq, idx, shape = self._inside(v0, F, material)
+        out = np.empty(vq.size)
+        for start in range(0, vq.size, _BLOCK):
+            block = slice(start, start + _BLOCK)
+            out[block] = self._interpolate(idx[block], vq[block], fq[block])
+        if collapse == "direct":
+            near = self._in_collapse(idx, vq, fq)
+            if near.any():
+                out[near] = self._direct_at(idx[near], vq[near], fq[near])
+        return float(out[0]) if shape == () else out.reshape(shape)
+
+    def collapsing(self, v0: Any, F: Any = None, material: Any = None) -> np.ndarray | bool:
+        """Whether each query (arguments and errors as for :meth:`__call__`) lies in a
+        collapse cell (:meth:`collapse_cells`: e falls to 0 inside it, at the no-rebound
+        speed or load), where the interpolant is only within the cell's largest corner
+        (``error()["collapse_bound"]``) and :meth:`direct` gives e; a bool where all are
+        scalars."""
+        vq, fq, idx, shape = self._inside(v0, F, material)
+        near = self._in_collapse(idx, vq, fq)
+        return bool(near[0]) if shape == () else near.reshape(shape)
+
+    def _inside(self, v0: Any, F: Any, material: Any) -> tuple[np.ndarray, ...]:
+        """:meth:`_queries` with F defaulted to the table's only load and each query
+        checked to lie in the table (an end's rounding taken at the end)."""
         if F is None:
             if self.F.size != 1:
                 raise ValueError(f"F is required: the table has loads {self.F.min():g} .. "
                                  f"{self.F.max():g} N")
             F = self.F[0]
         vq, fq, idx, shape = self._queries(v0, F, material)
-        vq, fq = self._in_range("v0", vq), self._in_range("F", fq)
-        out = np.empty(vq.size)
-        for start in range(0, vq.size, _BLOCK):
-            block = slice(start, start + _BLOCK)
-            out[block] = self._interpolate(idx[block], vq[block], fq[block])
-        return float(out[0]) if shape == () else out.reshape(shape)
+        return self._in_range("v0", vq), self._in_range("F", fq), idx, shape
+
+    def _in_collapse(self, idx: np.ndarray, vq: np.ndarray, fq: np.ndarray) -> np.ndarray:
+        """Queries (flat, inside the table) that fall in a collapse cell."""
+        return self._collapse[idx, self._cell_of("v0", vq), self._cell_of("F", fq)]
 
     # -- direct computation and the held-back check ---------------------------------------
 
@@ -351,7 +387,10 @@ class Table:
         """e [1] computed directly (the table's method and settings) at impact speeds v0
         [m/s], loads F [N] and materials (broadcast; errors as for :meth:`__call__`)."""
         vq, fq, idx, shape = self._queries(v0, F, material)
-        vq, fq, idx = (a.reshape(shape) for a in (vq, fq, idx))
+        return self._direct_at(*(a.reshape(shape) for a in (idx, vq, fq)))
+
+    def _direct_at(self, idx: np.ndarray, vq: np.ndarray, fq: np.ndarray) -> np.ndarray:
+        """:meth:`direct` at material indices ``idx``, speeds ``vq`` and loads ``fq``."""
         p = {name: values[idx] for name, values in self.properties.items()}
         gamma, gtilde = scale(p["m"], p["k"], p["gamma0"], vq, p["alpha"], p["beta"], self.g,
                               fq)
@@ -388,7 +427,7 @@ class Table:
     def collapse_cells(self) -> np.ndarray:
         """Cells where e falls to 0 at some corners but not all (the no-rebound speed or
         load inside): bool on (material, v0 cell, F cell)."""
-        return _collapsing(self._cell_corners()[0])
+        return self._collapse.copy()
 
     def _cell_of(self, axis: str, q: np.ndarray) -> np.ndarray:
         x = self._nodes[axis]
@@ -428,7 +467,7 @@ class Table:
         d = np.abs(self(v, f, names) - self.direct(v, f, names))
         d = np.where(np.isnan(d), np.inf, d)  # an invalid point is no agreement
         corners, offsets = self._cell_corners()
-        collapse = _collapsing(corners)
+        collapse = self._collapse
         away = ~collapse[idx, self._cell_of("v0", v), self._cell_of("F", f)]
         bound, where = self._collapse_bound(corners, offsets, collapse)
         held = float(d.max()) if d.size else 0.0
@@ -443,7 +482,7 @@ class Table:
 
 
 def lookup(dataset: Any, v0: Any, F: Any = None, material: Any = None,
-           variable: str | None = None) -> np.ndarray | float:
+           variable: str | None = None, collapse: str = "interpolate") -> np.ndarray | float:
     """Interpolated e [1] of a scene dataset at impact speeds v0 [m/s] and loads F [N].
 
     One-call form of :class:`Table` (which also reports the interpolation error, see
@@ -460,13 +499,16 @@ def lookup(dataset: Any, v0: Any, F: Any = None, material: Any = None,
         Material names (may be omitted when the table has one material).
     variable : str, optional
         Tabulated variable (default ``e_numeric``, else ``e_auto``).
+    collapse : {"interpolate", "direct"}, optional
+        ``"direct"``: queries in a cell where e falls to 0 (the no-rebound speed or load;
+        :meth:`Table.collapsing`) are computed directly instead of interpolated.
 
     Returns
     -------
     ndarray or float
         A float where v0, F and material are all scalars.
     """
-    return Table(dataset, variable)(v0, F, material)
+    return Table(dataset, variable)(v0, F, material, collapse)
 
 
 def _rows(ds: Any, variables: list[str]) -> Iterator[list[str]]:

@@ -444,3 +444,50 @@ def test_an_exported_table_says_its_methods_settings_and_is_not_read_as_a_scene(
         assert settings["e_numeric"][key] == pytest.approx(value), key
     with pytest.raises(ValueError, match="is an exported table, not a scene dataset"):
         tables.Table(out)
+
+
+def test_queries_in_a_collapse_cell_can_be_computed_directly(tmp_path):
+    # Near the no-rebound speed the interpolant is only within the cell's largest corner;
+    # collapse="direct" gives those queries the method's own e, and leaves the rest as
+    # interpolated.
+    path = tmp_path / "collapse.nc"
+    runner.run(config.loads(COLLAPSE, source="collapse.toml"), path, quiet=True)
+    table = tables.Table(path)
+    v0 = np.geomspace(1e-4, 1.0, 4001)
+    p = {k: v[0] for k, v in table.properties.items()}
+    gamma, gtilde = sweep.scale(p["m"], p["k"], p["gamma0"], v0, p["alpha"], p["beta"], g=9.81)
+    true = sweep.cor(p["alpha"], p["beta"], gamma, gtilde, tol=1e-10)
+    near = table.collapsing(v0)
+    assert 0 < near.sum() < 400 and np.all(v0[near] < 1e-3)
+    interpolated, direct = table(v0), table(v0, collapse="direct")
+    assert np.max(np.abs(interpolated[near] - true[near])) > 1e-3
+    assert np.max(np.abs(direct[near] - true[near])) < 1e-8
+    np.testing.assert_array_equal(direct[~near], interpolated[~near])
+    assert np.array_equal(sweep.lookup(path, v0=v0, collapse="direct"), direct)
+    with pytest.raises(ValueError, match=r"collapse = 'exact': must be one of 'interpolate', "
+                                         r"'direct'"):
+        table(0.5, collapse="exact")
+
+
+def test_a_query_is_in_a_collapse_cell_where_its_corners_hold_0_and_more():
+    rng = np.random.default_rng(5)
+    v0, F = np.sort(rng.uniform(0.01, 10.0, 8)), np.array([0.0, 0.3, 0.5, 1.0])
+    e = rng.uniform(0.2, 0.9, (2, v0.size, F.size))
+    e[0, 5:, 2:] = 0.0
+    e[1, :2, :] = 0.0
+    table = tables.Table(_synthetic(v0, F, e))
+    vq = np.concatenate([rng.uniform(v0[0], v0[-1], 500), v0])
+    fq = rng.uniform(0.0, 1.0, vq.size)
+    names = np.array(["a", "b"])[rng.integers(0, 2, vq.size)]
+
+    def naive(name, v, f):
+        m = "ab".index(name)
+        j = min(max(k for k in range(v0.size) if v0[k] <= v), v0.size - 2)
+        k = min(max(k for k in range(F.size) if F[k] <= f), F.size - 2)
+        corners = e[m, j:j + 2, k:k + 2]
+        return corners.min() == 0.0 and corners.max() > 0.0
+    want = np.array([naive(*q) for q in zip(names, vq, fq)])
+    assert 0 < want.sum() < want.size
+    np.testing.assert_array_equal(table.collapsing(vq, fq, names), want)
+    assert table.collapsing(v0[6] + 0.01, 0.4, "a") is True
+    assert table.collapsing(v0[6] + 0.01, 0.1, "a") is False
