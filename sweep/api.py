@@ -191,7 +191,7 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
 
 
 #: Why I(g~), Q(g~) of Prop. 2 have no value at a valid point (:func:`coefficients`).
-_IQ_RANGE = "gtilde is out of the range of I, Q (theta of (43) underflows or I overflows)"
+_IQ_RANGE = "is out of the range of I, Q (theta of (43) underflows or I overflows)"
 #: Methods whose e needs I, Q (and how they are computed): past that range they give none.
 _IQ_METHODS = {"ord2_numint": "numint", "ord2_approx": "approx"}
 
@@ -208,7 +208,8 @@ def _undefined_raise(m: registry.Method, b: Broadcast, checked: dict[str, Any]) 
         *_, status = _approx.coefficient_arrays(_IQ_METHODS[m.name], *b.flat[:2], b.flat[3],
                                                 *n)
         if status[0] != Status.OK:
-            raise ValueError(f"method {m.name!r}: {_IQ_RANGE}, got {gtilde!r}")
+            raise ValueError(f"method {m.name!r}: gtilde={gtilde!r} {_IQ_RANGE} at "
+                             f"alpha={alpha!r}")
     raise ValueError(f"method {m.name!r} gives no finite value at gamma={gamma!r}, "
                      f"gtilde={gtilde!r} (alpha={alpha!r}, beta={beta!r}): its formula "
                      "leaves double precision there")
@@ -373,7 +374,8 @@ def _pair(which: str, names: tuple[str, ...], values: tuple[Any, ...],
     gtilde = b.flat[2] if len(b.flat) > 2 else np.zeros_like(alpha)
     x1, x2, status = _approx.coefficient_arrays(which, alpha, beta, gtilde, n)
     if b.scalar and status[0] != Status.OK:
-        raise ValueError(f"{_IQ_RANGE}, got {float(gtilde[0])!r}")
+        raise ValueError(f"gtilde={float(gtilde[0])!r} {_IQ_RANGE} at "
+                         f"alpha={float(alpha[0])!r}")
     return b.restore(x1), b.restore(x2)
 
 

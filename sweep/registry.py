@@ -573,8 +573,9 @@ _CHEBYSHEV_N = Option("n", 21,
                       lambda v: _is_int(v) and 1 <= v <= CHEBYSHEV_N_MAX and v % 2 == 1,
                       f"an odd integer in [1, {CHEBYSHEV_N_MAX}] (number of Chebyshev nodes, "
                       "eq. (49))", int)
-_ORD2 = ("e = min(sqrt(max(e^2, 0)), e_s), report Prop. 2, eqs. (36)-(38), with I(g~) and "
-         "Q(g~) ")
+_ORD2 = ("e = min(sqrt(max(e^2, 0)), e_s), report Prop. 2, eqs. (36)-(38); NaN where g~ is "
+         "out of the range of I, Q at the point's alpha (theta of (43) underflows or I "
+         "overflows); with I(g~) and Q(g~) ")
 
 #: Every method ``sweep.cor`` accepts, in a stable order (datasets store them in it).
 METHODS: dict[str, Method] = {m.name: m for m in (
