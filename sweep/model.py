@@ -28,8 +28,8 @@ from sweep.kernels import contact
 from sweep.kernels._jit import cached_jit, jit, kernel_cache
 from sweep.registry import MODELS, Status
 
-__all__ = ["Status", "scale", "equilibrium", "damping_ratio", "natural_frequency",
-           "check_exponents", "MODELS"]
+__all__ = ["Status", "scale", "time_scale", "equilibrium", "damping_ratio",
+           "natural_frequency", "check_exponents", "MODELS"]
 
 
 def check_exponents(alpha: Any, beta: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -95,6 +95,45 @@ def scale(m, k, gamma0, v0, alpha, beta, g=9.81, F=0.0):
         return float(gamma), float(gtilde)
     gamma, gtilde = np.broadcast_arrays(gamma, gtilde)
     return gamma.copy(), gtilde.copy()
+
+
+def time_scale(m: Any, k: Any, v0: Any, alpha: Any) -> Any:
+    """The time unit ``T`` [s] of the scaling (2): ``T = (m/k)^(1/(alpha+1))
+    v0^((1-alpha)/(alpha+1))``, and with it the length unit ``delta = v0 T`` [m].
+
+    A scaled duration times T is in seconds (the integrator's ``t_f``: the contact's
+    duration), a scaled compression times ``v0 T`` in metres (``u_max``). Broadcast as
+    :func:`scale`; where a factor overflows or underflows while T is representable, T is
+    formed from logarithms.
+
+    Parameters
+    ----------
+    m, k, v0 : float or array_like
+        Bead mass [kg], contact stiffness [N m^-alpha] and impact speed [m/s], each > 0.
+    alpha : float or array_like
+        Stiffness exponent, >= 1.
+
+    Returns
+    -------
+    ndarray or float
+        T [s] (a Python float for 0-d inputs).
+
+    Raises
+    ------
+    ValueError
+        Naming the first offending argument and value, or shapes that do not broadcast.
+    """
+    args = {name: registry.check_array(name, val) for name, val in
+            dict(m=m, k=k, v0=v0).items()}
+    args["alpha"] = check_exponents(alpha, 1.0)[0]
+    check_broadcast(tuple(args), tuple(args.values()))
+    m, k, v0, alpha = (np.asarray(args[n], dtype=np.float64) for n in ("m", "k", "v0", "alpha"))
+    ap1 = alpha + 1.0
+    with np.errstate(over="ignore", under="ignore", divide="ignore", invalid="ignore"):
+        t = (m / k) ** (1.0 / ap1) * v0 ** ((1.0 - alpha) / ap1)
+        logs = np.exp((np.log(m) - np.log(k) + (1.0 - alpha) * np.log(v0)) / ap1)
+    t = np.where(np.isfinite(t) & (t > 0.0), t, logs)
+    return float(t) if t.ndim == 0 else t
 
 
 #: The inputs each scaled quantity depends on (named when it overflows).

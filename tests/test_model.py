@@ -182,3 +182,20 @@ def _plain_formula(m, k, gamma0, v0, alpha, beta, g=9.81):
     m, k, gamma0, v0, a, b = (float(x) for x in (m, k, gamma0, v0, alpha, beta))
     return (gamma0 * v0 ** (2 * b / (a + 1) - 1) * (k / m) ** (1 - b / (a + 1)),
             (m / k) ** (1 / (a + 1)) * v0 ** (-2 * a / (a + 1)) * g)
+
+
+def test_time_scale_is_the_unit_of_the_scaling():
+    # T = (m/k)^(1/(a+1)) v0^((1-a)/(a+1)): with delta = v0 T, the scaled well of the
+    # load is g~ = (g + F/m) T^2 / delta (eq. (2) by substitution).
+    m, k, v0, a = 0.154, 3.6138e10, np.array([0.01, 1.0, 30.0]), 1.5
+    t = sweep.time_scale(m, k, v0, a)
+    np.testing.assert_allclose(t, (m / k) ** 0.4 * v0 ** -0.2, rtol=1e-15)
+    _, gtilde = sweep.scale(m, k, 0.0, v0, a, 1.5, g=9.81)
+    np.testing.assert_allclose(gtilde, 9.81 * t ** 2 / (v0 * t), rtol=1e-14)
+    assert type(sweep.time_scale(m, k, 1.0, a)) is float
+    # A factor beyond double range, T itself not: from logarithms.
+    assert sweep.time_scale(1e-300, 1e300, 1.0, 1.0) == pytest.approx(1e-300, rel=1e-12)
+    with pytest.raises(ValueError, match="alpha"):
+        sweep.time_scale(m, k, 1.0, 0.5)
+    with pytest.raises(ValueError, match="v0"):
+        sweep.time_scale(m, k, -1.0, a)

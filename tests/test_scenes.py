@@ -391,3 +391,49 @@ def test_gamma0_for_cor_gives_small_e_it_can_reach(e):
     gamma0 = materials.gamma0_for_cor(e, 1.0, 2.05e-3, 9.858e9, 1.5, 1.5)
     gamma, gtilde = sweep.scale(2.05e-3, 9.858e9, gamma0, 1.0, 1.5, 1.5)
     assert sweep.cor(1.5, 1.5, gamma, gtilde) == pytest.approx(e, rel=materials.REACHED)
+
+
+UNDAMPED = """
+[design]
+kind = "scene"
+g = 0.0
+v0 = {start = 1e-3, stop = 10.0, num = 5, spacing = "log"}
+F = 0.0
+[design.materials.spring]
+law = "linear"
+m = 0.2
+k = 5e4
+gamma0 = 0.0
+[design.materials.steel]
+law = "hertz"
+m = 0.154
+k = 3.6138e10
+gamma0 = 0.0
+[outputs]
+e = ["numeric"]
+fields = ["t_f", "u_max"]
+[integrator]
+tol = 1e-10
+"""
+
+
+def test_a_scene_gives_contact_time_and_compression_in_si_units(tmp_path):
+    # Undamped, unloaded: the contact of F = k x^alpha lasts 2 x_m / v0 B(1/(a+1), 1/2) /
+    # (a+1), x_m = ((a+1) m v0^2 / (2 k))^(1/(a+1)) (energy conservation), pi sqrt(m/k) for
+    # the linear spring: independent of the scaling (2) the dataset's units come from.
+    from scipy.special import beta as beta_function
+
+    path = tmp_path / "undamped.nc"
+    runner.run(config.loads(UNDAMPED, source="undamped.toml"), path, quiet=True)
+    with xr.open_dataset(path) as ds:
+        assert ds.time_scale.dims == ds.length_scale.dims == ("material", "v0")
+        assert (ds.time_scale.units, ds.length_scale.units) == ("s", "m")
+        seconds = (ds.t_f * ds.time_scale).isel(F=0).values
+        metres = (ds.u_max * ds.length_scale).isel(F=0).values
+        v0 = ds.v0.values
+    for row, (m, k, a) in enumerate([(0.2, 5e4, 1.0), (0.154, 3.6138e10, 1.5)]):
+        x_m = ((a + 1.0) * m * v0 ** 2 / (2.0 * k)) ** (1.0 / (a + 1.0))
+        duration = 2.0 * x_m / v0 * beta_function(1.0 / (a + 1.0), 0.5) / (a + 1.0)
+        np.testing.assert_allclose(seconds[row], duration, rtol=1e-8)
+        np.testing.assert_allclose(metres[row], x_m, rtol=1e-8)
+    np.testing.assert_allclose(seconds[0], math.pi * math.sqrt(0.2 / 5e4), rtol=1e-8)

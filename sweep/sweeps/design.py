@@ -444,7 +444,8 @@ class SceneDesign(Design):
         constants = {name: (("material",), values) for name, values in self._props.items()}
         constants[store.MATERIAL_NAME] = (("material",), [m.name for m in self.materials])
         constants["g"] = ((), self.spec.g)
-        attrs = {store.MATERIAL_NAME: {
+        constants.update(self._scales())
+        attrs = {**_SCALE_ATTRS, store.MATERIAL_NAME: {
             "long_name": "material name",
             "description": "name of the bead / floor material of the scene (design.materials)",
             "origin": "; ".join(f"{m.name}: {m.origin}" for m in self.materials)}}
@@ -454,6 +455,14 @@ class SceneDesign(Design):
                             spacing=dict(self.spec.spacing), point_vars=("gamma", "gtilde"),
                             constants=constants, attrs=attrs,
                             aux_coords=(store.MATERIAL_NAME,))
+
+    def _scales(self) -> dict:
+        """Each (material, v0)'s units of the scaling (2), T and delta = v0 T: a scaled
+        duration or compression of the dataset times them is in seconds or metres."""
+        p = {name: self._props[name][:, None] for name in ("m", "k", "alpha")}
+        t = model.time_scale(p["m"], p["k"], self._v0[None, :], p["alpha"])
+        return {"time_scale": (("material", "v0"), t),
+                "length_scale": (("material", "v0"), t * self._v0[None, :])}
 
     def describe(self):
         mats = ", ".join(f"{m.name} (alpha={m.alpha:g}, beta={m.beta:g}, m={m.m:.6g} kg, "
@@ -465,6 +474,19 @@ class SceneDesign(Design):
                 f"({spacing['v0']}) x "
                 f"F[{self.shape[2]}] in [{self._F.min():g}, {self._F.max():g}] N, "
                 f"g = {self.spec.g:g} m/s^2 = {count(self.size, 'point')}")
+
+
+#: Attributes of a scene's units of the scaling (2) (:meth:`SceneDesign._scales`).
+_SCALE_ATTRS = {
+    "time_scale": {"long_name": "time unit T of the scaling", "units": "s",
+                   "description": "T = (m/k)^(1/(alpha+1)) v0^((1-alpha)/(alpha+1)), report "
+                                  "eq. (2): a scaled time times T is in seconds (t_f "
+                                  "time_scale: the contact's duration)"},
+    "length_scale": {"long_name": "length unit delta of the scaling", "units": "m",
+                     "description": "delta = v0 T, report eq. (2): a scaled compression "
+                                    "times delta is in metres (u_max length_scale: the "
+                                    "largest compression)"},
+}
 
 
 def _make_engine(cls, d, seed, **kw):
