@@ -342,7 +342,7 @@ class Table:
             that do not broadcast (naming v0, F, material), a missing or unknown material,
             a ``collapse`` other than ``"interpolate"`` or ``"direct"``.
         """
-        if collapse not in COLLAPSE_CHOICES:
+        if not isinstance(collapse, str) or collapse not in COLLAPSE_CHOICES:
             raise ValueError(f"collapse = {collapse!r}: must be one of "
                              f"{', '.join(map(repr, COLLAPSE_CHOICES))}")
         vq, fq, idx, shape = self._inside(v0, F, material)

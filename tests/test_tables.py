@@ -463,10 +463,13 @@ def test_queries_in_a_collapse_cell_can_be_computed_directly(tmp_path):
     assert np.max(np.abs(interpolated[near] - true[near])) > 1e-3
     assert np.max(np.abs(direct[near] - true[near])) < 1e-8
     np.testing.assert_array_equal(direct[~near], interpolated[~near])
+    np.testing.assert_array_equal(direct[near], table.direct(v0[near], 0.0))
     assert np.array_equal(sweep.lookup(path, v0=v0, collapse="direct"), direct)
     with pytest.raises(ValueError, match=r"collapse = 'exact': must be one of 'interpolate', "
                                          r"'direct'"):
         table(0.5, collapse="exact")
+    with pytest.raises(ValueError, match=r"collapse = array\(\['direct'\]"):
+        table(0.5, collapse=np.array(["direct"]))
 
 
 def test_a_query_is_in_a_collapse_cell_where_its_corners_hold_0_and_more():

@@ -818,15 +818,19 @@ def _blocks_naming(blocks) -> dict:
 @functools.cache
 def _liveness_on_bit_sets() -> bool:
     """Let numba find the variables live at each block's entry on bit sets
-    (:func:`sweep.kernels._numba_ir.compute_live_map`: the same sets), while one of this
+    (:func:`sweep.kernels._numba_ir.compute_live_map`: the same sets, whose order of
+    iteration may differ, which nothing numba compiles depends on), while one of this
     package's dispatchers compiles; True where it does.
 
     numba's IR post-processor recomputes them after nearly every pass and inlined call
     site, with set unions that copy thousands of names: 2,367 times and 1.3 s in the
     first ``sweep.cor()``, 0.3 s on bit sets (docs/speed/history.md, 2026-12-07).
     Applied to the sources in :data:`LIVE_MAP_SOURCES` of the releases in
-    :data:`PATCHED_NUMBA`; numba's own compiles, and its parfors (which import the
-    function by name), keep numba's.
+    :data:`PATCHED_NUMBA`. As with the other patches, "while one compiles" covers what that
+    compile compiles in turn (numba's own overloads among them) and, the switch being
+    the process's, another thread's compile meanwhile; compiles started outside the
+    package keep numba's, and so does numba code that imports the function by name
+    (``ir_utils``, ``parfors``).
     """
     from numba.core import analysis                       # noqa: PLC0415 -- numba internals
 
