@@ -38,7 +38,7 @@ class Broadcast:
                 # rather than answer for the wrong pairs.
                 raise TypeError(f"{name} is a labelled array (dims {tuple(a.dims)}); use "
                                 "sweep.xr.cor / sweep.xr.integrate, which broadcast by "
-                                "dimension name")
+                                "dimension name (xarray.apply_ufunc for other functions)")
         arrays = [registry.real_array(name, a) for name, a in zip(names, arrays)]
         self.scalar = all(a.ndim == 0 for a in arrays)
         check_broadcast(names, arrays)

@@ -13,15 +13,22 @@ Above the critical scaled load ``g~_c(alpha, beta, gamma)`` (resp. damping
     to relative precision 1e-8. All points are bracketed and bisected together, with one
     ``integrate`` call per iteration over the array of trial values. The search assumes that
     the bead rebounds below the threshold and not above it (e decreases with g~ and gamma,
-    reaching 0 like the square root of the distance to the threshold, SPEC section 7).
+    reaching 0 like the square root of the distance to the threshold under a load, SPEC
+    section 7). "No rebound" is the integrator's: e = 0, or e below what it resolves (below).
     The bracket grows from (24) by factors of 4, then (where (24) is far off: small g~,
     creep) by factors that square each step, down to 1e-300 and up to 1e300 (or the top of
     the unknown's domain in :data:`sweep.registry.PARAMETERS`, where lower). Returns
     ``0.0`` where it does not rebound even at 1e-300, ``inf`` where it still rebounds at
     that top, and NaN where the integrator could not decide (budget exhausted) during the
-    search. A rebound below the integrator's ``e_err``
-    (1e-9 at the defaults; ``tol`` lowers it) counts as none: the search finds where e
-    falls below that. At g~ = 0, gamma_c is the theory's where it has one (docs/creep.md,
+    search, with a RuntimeWarning saying how many. The search integrates with the rest box at :data:`SEARCH_REST_TOL`
+    (unless ``rest_tol`` is given): at the integrator's default, 1e-8, a bead in the box
+    counts as at rest though it may still leave with e up to ~1e-8, and thresholds at tiny
+    loads came out low (KK's gamma_c at g~ = 1e-12: 36.8 for 80.0; g~_c at gamma = 40: 0
+    for 6.4e-11). A rebound the integrator reports as negligible still counts as none: e
+    below a tenth of its refinement target (1e-10 at the defaults, tol/10 with ``tol``),
+    given as 0 with that bound as e_err. Where e falls that low before the threshold, the
+    result is where it does: KK's gamma_c at g~ = 1e-15 is 138 at the defaults (where e
+    falls below 1e-10) and 253 with ``tol=1e-13``. At g~ = 0, gamma_c is the theory's where it has one (docs/creep.md,
     section 4): ``inf`` for ``2 beta > alpha + 1`` (the bead always leaves, with e falling
     like a power of gamma) and ``2 / sqrt(beta)`` for ``2 beta = alpha + 1`` (the linear
     law's 2, TTI's 1.789).
@@ -31,19 +38,24 @@ Owns: the no-rebound thresholds. May import: registry, :mod:`sweep.api` and
 """
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
 
 from sweep import registry
 from sweep._arrays import Broadcast
-from sweep.api import integrate, large_gtilde_coefficient
+from sweep.api import integrate, integrator_settings, large_gtilde_coefficient
 from sweep.registry import Status
 
-__all__ = ["critical_gtilde", "critical_gamma", "RTOL"]
+__all__ = ["critical_gtilde", "critical_gamma", "RTOL", "SEARCH_REST_TOL"]
 
 #: Relative precision of the numerical bisection.
 RTOL = 1e-8
+#: The integrator's rest box during the search (its ``rest_tol``), unless given: a bead in
+#: the box is taken to be at rest, so the box must be far below any rebound the search is
+#: to see.
+SEARCH_REST_TOL = 1e-15
 _FACTOR = 4.0        # bracket expansion factor
 _MAX_EXPAND = 20     # steps at _FACTOR (4^20 ~ 1e12 from (24)); beyond, the factor squares
 _LOWEST, _HIGHEST = 1e-300, 1e300   # the bracket's ends: below, 0; above, inf
@@ -59,7 +71,7 @@ def _constants(alpha, beta):
 
 def _rebounds(alpha, beta, gamma, gtilde, options):
     """Per point: whether it rebounds (e > 0), and whether the integrator decided it."""
-    res = integrate(alpha, beta, gamma, gtilde, **options)
+    res = integrate(alpha, beta, gamma, gtilde, **{"rest_tol": SEARCH_REST_TOL, **options})
     status = np.asarray(res.status)
     e = np.asarray(res.e)
     rebound = (status == Status.OK) & (e > 0.0)
@@ -147,8 +159,10 @@ def _threshold(evaluate, start, fallback_start, top):
 
 
 def _check_method(method, options):
-    """Refuse an unknown method, and an option the method does not use, naming it: (24) uses
-    none, the bisection :func:`sweep.api.integrate`'s (Python would raise a TypeError)."""
+    """Refuse an unknown method, and an option the method does not use or a value its rule
+    rejects, naming it: (24) uses none, the bisection :func:`sweep.api.integrate`'s (Python
+    would raise a TypeError), checked before any point is integrated (where none is, a bad
+    value went unnoticed)."""
     if method not in _METHODS:
         raise ValueError(f"method must be one of {_METHODS}, got {method!r}")
     if method == "approx" and options:
@@ -156,6 +170,10 @@ def _check_method(method, options):
                          f"does), got {', '.join(map(repr, options))}")
     if method == "numeric":
         registry.METHODS["numeric"].refuse_unknown(options, extra=("parallel",))
+        integrator_settings(**{k: v for k, v in options.items() if k != "parallel"})
+        parallel = options.get("parallel")
+        if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
+            raise ValueError(f"parallel must be None, True or False, got {parallel!r}")
 
 
 def _approx(unknown, x, c, r):
@@ -191,6 +209,15 @@ def _critical(unknown, alpha, beta, known, method, options):
         pt = {"alpha": a[idx], "beta": be[idx], other: x[idx], unknown: trial}
         return _rebounds(*(pt[n] for n in registry.PARAMETER_NAMES), options)
 
+    out = _searched(unknown, evaluate, (a, be, x), valid, approx)
+    _warn_undecided(np.count_nonzero(valid & np.isnan(out)))
+    return b.restore(out)
+
+
+def _searched(unknown, evaluate, points, valid, approx):
+    """The numerical thresholds of ``unknown`` at ``points`` (alpha, beta and the other
+    parameter's values; ``valid``: the points that are; ``approx``: (24) there)."""
+    a, be, x = points
     if unknown == "gtilde":
         # gamma = 0 never sticks: g~_c = inf; the search starts from (24) elsewhere.
         out = _threshold(evaluate, np.where(x > 0.0, approx, np.nan), np.nan, _top(unknown))
@@ -200,7 +227,16 @@ def _critical(unknown, alpha, beta, known, method, options):
         exact = _gamma_c_at_zero_load(a, be)
         known_zero = valid & (x == 0.0) & ~np.isnan(exact)
         out[known_zero] = exact[known_zero]
-    return b.restore(out)
+    return out
+
+
+def _warn_undecided(n: int) -> None:
+    """Warn that ``n`` thresholds are NaN for an undecided search (as sweep.cor warns of
+    points that ran out of their step budget)."""
+    if n:
+        warnings.warn(f"{n} threshold(s) undecided (NaN): the integrator ran out of its step "
+                      "budget (status BUDGET_EXHAUSTED) during the search; max_steps gives "
+                      "it a larger budget", RuntimeWarning, stacklevel=4)
 
 
 def _gamma_c_at_zero_load(alpha, beta):
@@ -264,7 +300,9 @@ def critical_gamma(alpha: Any, beta: Any, gtilde: Any, method: str = "approx",
     -------
     ndarray or float
         ``gamma_c``; the approximation gives ``inf`` at g~ = 0, where the numerical search
-        starts from gamma = 1.
+        starts from gamma = 1. (24) holds at large g~ (small gamma_c): at small g~ it is far
+        above the threshold (the linear law at g~ = 1e-3: 1.6e5 against 1.77), and it was
+        above it at every point checked, so it is no safe no-rebound bound.
 
     Raises
     ------

@@ -188,3 +188,53 @@ def test_the_bracket_stops_at_the_top_of_gammas_domain(monkeypatch):
     monkeypatch.setattr(K, "_rebounds", always_rebounds)
     assert K.critical_gamma(1.5, 1.5, 0.1, method="numeric") == np.inf
     assert max(t.max() for t in trials) == 1e6
+
+
+def _linear_trough(gamma, gtilde):
+    """u at the first trough after the maximum compression of the linear law (alpha = beta
+    = 1, gamma < 2): u'' + gamma u' + u = g~, u(0) = 0, u'(0) = 1, solved in closed form.
+    The bead sticks where u is still >= 0 there: the threshold is where it is 0."""
+    import math
+    zeta = gamma / 2.0
+    wd = math.sqrt(1.0 - zeta * zeta)
+    a, b = -gtilde, (1.0 - zeta * gtilde) / wd
+    # u' = exp(-zeta t) (cos(wd t) - (zeta b + wd a) sin(wd t)): the maximum at t1, the
+    # trough half a damped period later.
+    t1 = math.atan2(1.0, zeta * b + wd * a) / wd
+    t2 = t1 + math.pi / wd
+    return gtilde + math.exp(-zeta * t2) * (a * math.cos(wd * t2) + b * math.sin(wd * t2))
+
+
+@pytest.mark.parametrize("unknown, known", [("gamma", 1e-12), ("gamma", 1e-9),
+                                            ("gtilde", 1.97), ("gtilde", 1.0)])
+def test_numeric_thresholds_of_the_linear_law_at_tiny_rebounds(unknown, known):
+    # The integrator's rest box (1e-8 by default) took rebounds of e up to ~1e-8 for rest:
+    # gamma_c at g~ = 1e-12 came out 1.9715 for 1.9862, g~_c at gamma = 1.97 3.0e-9 for
+    # 6.05e-9.
+    from scipy.optimize import brentq
+
+    if unknown == "gamma":
+        exact = brentq(lambda g: _linear_trough(g, known), 1.5, 1.9999999, xtol=1e-15,
+                       rtol=1e-14)
+        got = K.critical_gamma(1.0, 1.0, known, method="numeric")
+    else:
+        exact = brentq(lambda gt: _linear_trough(known, gt), 1e-15, 10.0, xtol=1e-300,
+                       rtol=1e-14)
+        got = K.critical_gtilde(1.0, 1.0, known, method="numeric")
+    assert got == pytest.approx(exact, rel=3e-8)
+
+
+def test_an_undecided_search_warns_and_bad_options_are_refused_up_front():
+    with pytest.warns(RuntimeWarning, match=r"1 threshold\(s\) undecided \(NaN\)"):
+        assert np.isnan(K.critical_gtilde(1.5, 1.5, 0.01, method="numeric", max_steps=10))
+    # gamma = 0 integrates nothing: the values were not checked at all.
+    with pytest.raises(ValueError, match="tol"):
+        K.critical_gtilde(1.5, 1.5, 0.0, method="numeric", tol=-1.0)
+    with pytest.raises(ValueError, match="parallel"):
+        K.critical_gtilde(1.5, 1.5, 0.0, method="numeric", parallel="yes")
+
+
+def test_a_labelled_array_is_pointed_to_apply_ufunc():
+    xr = pytest.importorskip("xarray")
+    with pytest.raises(TypeError, match="apply_ufunc"):
+        K.critical_gtilde(1.5, 1.5, xr.DataArray([0.01, 0.1], dims="gamma"))
