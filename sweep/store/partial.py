@@ -32,6 +32,7 @@ from __future__ import annotations
 import collections
 import contextlib
 import datetime as _dt
+import errno
 import hashlib
 import json
 import os
@@ -541,6 +542,8 @@ class PartialStore:
         """Indices of the chunks whose results are saved (not yet verified)."""
         done = set()
         for p in self.dir.glob("chunk_*.npz"):
+            if not p.is_file():     # a directory of that name is no chunk (save_chunk)
+                continue
             try:
                 done.add(int(p.stem.split("_")[1]))
             except (IndexError, ValueError):
@@ -567,11 +570,24 @@ class PartialStore:
         points : dict of str -> ndarray, optional
             The parameters of the chunk's points, by name.
         """
+        self._clear_for_chunk(index)
         meta = {"format": CHUNK_FORMAT, "identity": self.identity,
                 "config_sha256": self.manifest.get("config_sha256"), "index": int(index),
                 "start": int(start), "stop": int(stop),
                 "tally": [float(t) for t in tally], "points_sha256": _digest(points or {})}
         write_atomic(self._chunk_path(index), lambda fh: _write_chunk(fh, arrays, meta))
+
+    def _clear_for_chunk(self, index: int) -> None:
+        """Make room for chunk ``index``'s file where a directory has its name (its rename
+        failed there on every resume): an empty one is removed; another is refused, naming
+        it (OSError), since it is not this store's to delete."""
+        path = self._chunk_path(index)
+        if path.is_dir() and not path.is_symlink():
+            try:
+                path.rmdir()
+            except OSError:
+                raise OSError(errno.EISDIR, "a directory, not a chunk file: move it out of "
+                              "the way", str(path)) from None
 
     def load_chunk(self, index: int, start: int, stop: int,
                    points: Mapping[str, Any] | None = None
