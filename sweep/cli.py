@@ -21,8 +21,9 @@
 
 Exit status: 0 success; 1 an error: invalid configuration, refused resume or preflight,
 output locked by another run, unreadable dataset, a file system or scheduler fault; 2 bad
-arguments; 130 interrupted, 143 terminated by SIGTERM (the finished chunks are kept; rerun
-the same command, less ``--restart``, to resume); 141 the reader of the output left
+arguments; 130 interrupted, 143 terminated by SIGTERM, 129 hung up (SIGHUP: the terminal
+closed) (the finished chunks are kept; rerun the same command, less ``--restart``, to
+resume); 141 the reader of the output left
 (``sweep info X | head``: nothing is said, as for a command killed by SIGPIPE); a stdout
 that cannot be written (``> /dev/full``) is an error naming ``<stdout>``. ``sweep
 run`` whose stderr fails midway (``2>&1 | head``, ``2>/dev/full``) drops its messages and
@@ -784,13 +785,24 @@ def _leaf_parsers(parser: argparse.ArgumentParser):
 
 
 class _Terminated(KeyboardInterrupt):
-    """SIGTERM (e.g. a batch system's time limit): it unwinds like Ctrl-C, finished chunks
-    already saved and the half-assembled file closed, and exits as a shell reports a
-    command killed by SIGTERM, 128 + 15 (not Ctrl-C's 130)."""
+    """SIGTERM (e.g. a batch system's time limit) or SIGHUP (the terminal closed): it
+    unwinds like Ctrl-C, finished chunks already saved and the half-assembled file closed,
+    and exits as a shell reports a command killed by that signal, 128 + its number (143,
+    129; not Ctrl-C's 130)."""
+
+    def __init__(self, signum: int = signal.SIGTERM) -> None:
+        super().__init__(signum)
+        self.signum = int(signum)
 
 
 def _terminate(signum, frame):
-    raise _Terminated
+    raise _Terminated(signum)
+
+
+#: Signals a run unwinds from as from Ctrl-C (SIGHUP where the platform has it), with the
+#: word ``main`` says.
+_STOPPING = {signal.SIGTERM: "terminated",
+             **({signal.SIGHUP: "hung up"} if hasattr(signal, "SIGHUP") else {})}
 
 
 def _drop_stdout() -> None:
@@ -870,12 +882,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:  # during start-up: the parser imports the reports (numba)
         _say("sweep: interrupted")
         return 130
-    previous = None
+    previous = {}
     if args.command == "run":
         try:
-            previous = signal.signal(signal.SIGTERM, _terminate)
+            previous = {s: signal.signal(s, _terminate) for s in _STOPPING}
         except ValueError:  # not the main thread (embedded use): leave signals alone
-            previous = None
+            previous = {}
     try:
         status = args.func(args)
         with _writing_stdout():
@@ -883,9 +895,9 @@ def main(argv: list[str] | None = None) -> int:
         return status
     except BrokenPipeError:  # before Exception: it is an OSError, not the input's fault
         return _stdout_closed()
-    except _Terminated:
-        _say("sweep: terminated")
-        return 143
+    except _Terminated as stop:
+        _say(f"sweep: {_STOPPING.get(stop.signum, 'terminated')}")
+        return 128 + stop.signum
     except KeyboardInterrupt:
         _say("sweep: interrupted")
         return 130
@@ -897,8 +909,8 @@ def main(argv: list[str] | None = None) -> int:
              + (" (rerun with --debug for the traceback)" if kind else ""))
         return 1
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 if __name__ == "__main__":  # python -m sweep.cli

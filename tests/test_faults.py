@@ -1199,3 +1199,33 @@ def test_a_directory_in_place_of_a_chunk_file_is_named_or_cleared(tmp_path, monk
     (saved[0] / "notes").unlink()
     run(GRID, out)                                # the empty directories give way
     xr.testing.assert_identical(opened(out), reference["grid"])
+
+
+def test_sighup_exits_129_keeping_the_finished_chunks(tmp_path, monkeypatch, capsys):
+    # A closed terminal's SIGHUP killed the run outright (its default action): the
+    # half-assembled file was left open and the save in flight cut short.
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    real, calls = runner.compute_chunk, [0]
+
+    def hung_up(*args):
+        calls[0] += 1
+        if calls[0] == 4:                          # the warm-up, then two chunks saved
+            os.kill(os.getpid(), signal.SIGHUP)
+            time.sleep(1.0)                        # the handler raises before this ends
+        return real(*args)
+
+    monkeypatch.setattr(runner, "compute_chunk", hung_up)
+    missed = []                   # a run that does not catch it must not end pytest
+
+    def before(signum, frame):
+        missed.append(signum)
+    previous = signal.signal(signal.SIGHUP, before)
+    try:
+        assert cli.main(["run", str(cfg), "-o", str(tmp_path / "out.nc"), "--quiet"]) == 129
+        assert signal.getsignal(signal.SIGHUP) is before and not missed   # restored
+    finally:
+        signal.signal(signal.SIGHUP, previous)
+    assert capsys.readouterr().err == "sweep: hung up\n"
+    assert len(list((tmp_path / "out.nc.partial").glob("chunk_*.npz"))) == 2
+    assert cli.main(["run", str(cfg), "-o", str(tmp_path / "out.nc"), "--quiet"]) == 0

@@ -1213,7 +1213,7 @@ def _stream_chunks(job, partial, done, behind, quiet, client, save=None):
 
 @contextlib.contextmanager
 def _signals_deferred():
-    """Hold SIGINT and SIGTERM until the block ends, then deliver them as usual.
+    """Hold SIGINT, SIGTERM and SIGHUP until the block ends, then deliver them as usual.
 
     The publication of the output and the invalidation of the partial state must not be
     cut in half by a signal: an interruption there would report a complete output as
@@ -1225,8 +1225,10 @@ def _signals_deferred():
         yield
         return
     pending = []
+    held = (signal.SIGINT, signal.SIGTERM) + ((signal.SIGHUP,) if hasattr(signal, "SIGHUP")
+                                                else ())
     previous = {s: signal.signal(s, lambda signum, frame: pending.append(signum))
-                for s in (signal.SIGINT, signal.SIGTERM)}
+                for s in held}
     try:
         yield
     finally:
