@@ -885,7 +885,9 @@ def main(argv: list[str] | None = None) -> int:
     previous = {}
     if args.command == "run":
         try:
-            previous = {s: signal.signal(s, _terminate) for s in _STOPPING}
+            # An ignored one stays ignored: under nohup a closed terminal must not stop it.
+            previous = {s: signal.signal(s, _terminate) for s in _STOPPING
+                        if signal.getsignal(s) is not signal.SIG_IGN}
         except ValueError:  # not the main thread (embedded use): leave signals alone
             previous = {}
     try:

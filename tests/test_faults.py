@@ -1229,3 +1229,24 @@ def test_sighup_exits_129_keeping_the_finished_chunks(tmp_path, monkeypatch, cap
     assert capsys.readouterr().err == "sweep: hung up\n"
     assert len(list((tmp_path / "out.nc.partial").glob("chunk_*.npz"))) == 2
     assert cli.main(["run", str(cfg), "-o", str(tmp_path / "out.nc"), "--quiet"]) == 0
+
+
+def test_an_ignored_sighup_stays_ignored(tmp_path):
+    # Under nohup SIGHUP is ignored: the run must go on when the terminal closes.
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GRID)
+    code = ("import os, signal, sys\n"
+            "from sweep import cli\n"
+            "from sweep.sweeps import runner\n"
+            "real = runner.compute_chunk\n"
+            "def hung_up(*a):\n"
+            "    os.kill(os.getpid(), signal.SIGHUP)\n"
+            "    return real(*a)\n"
+            "runner.compute_chunk = hung_up\n"
+            "sys.exit(cli.main(sys.argv[1:]))\n")
+    done = subprocess.run(["nohup", sys.executable, "-c", code, "run", str(cfg), "-o",
+                           str(tmp_path / "out.nc"), "--quiet"], cwd=tmp_path,
+                          env=dict(os.environ, PYTHONPATH=str(ROOT)), capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "out.nc").exists()

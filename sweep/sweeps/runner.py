@@ -1228,7 +1228,7 @@ def _signals_deferred():
     held = (signal.SIGINT, signal.SIGTERM) + ((signal.SIGHUP,) if hasattr(signal, "SIGHUP")
                                                 else ())
     previous = {s: signal.signal(s, lambda signum, frame: pending.append(signum))
-                for s in held}
+                for s in held if signal.getsignal(s) is not signal.SIG_IGN}
     try:
         yield
     finally:
