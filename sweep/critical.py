@@ -20,16 +20,16 @@ Above the critical scaled load ``g~_c(alpha, beta, gamma)`` (resp. damping
     the unknown's domain in :data:`sweep.registry.PARAMETERS`, where lower). Returns
     ``0.0`` where it does not rebound even at 1e-300, ``inf`` where it still rebounds at
     that top, and NaN where the integrator could not decide (budget exhausted) during the
-    search, with a RuntimeWarning saying how many. The search integrates with the rest box at :data:`SEARCH_REST_TOL`
-    (unless ``rest_tol`` is given): at the integrator's default, 1e-8, a bead in the box
-    counts as at rest though it may still leave with e up to ~1e-8, and thresholds at tiny
-    loads came out low (KK's gamma_c at g~ = 1e-12: 36.8 for 80.0; g~_c at gamma = 40: 0
-    for 6.4e-11). A rebound the integrator reports as negligible still counts as none: e
-    below a tenth of its refinement target (1e-10 at the defaults, tol/10 with ``tol``),
-    given as 0 with that bound as e_err. Where e falls that low before the threshold, the
-    result is where it does: KK's gamma_c at g~ = 1e-15 is 138 at the defaults (where e
-    falls below 1e-10) and 253 with ``tol=1e-13``. At g~ = 0, gamma_c is the theory's where it has one (docs/creep.md,
-    section 4): ``inf`` for ``2 beta > alpha + 1`` (the bead always leaves, with e falling
+    search, with a RuntimeWarning saying how many. The search integrates with the rest box
+    at :data:`SEARCH_REST_TOL` (unless ``rest_tol`` is given): at the integrator's default,
+    1e-8, a bead in the box counts as at rest though it may still leave with e up to ~1e-8,
+    and thresholds at tiny loads came out low (KK's gamma_c at g~ = 1e-12: 36.8 for 80.0;
+    g~_c at gamma = 40: 0 for 6.4e-11). A rebound the integrator reports as negligible
+    still counts as none: e below a tenth of its refinement target (1e-10 at the defaults,
+    tol/10 with ``tol``), given as 0 with that bound as e_err. Where e falls that low before
+    the threshold, the result is where it does: KK's gamma_c at g~ = 1e-15 is 138 at the
+    defaults (where e falls below 1e-10) and 253 with ``tol=1e-13``. At g~ = 0, gamma_c is
+    the theory's where it has one (docs/creep.md, section 4): ``inf`` for ``2 beta > alpha + 1`` (the bead always leaves, with e falling
     like a power of gamma) and ``2 / sqrt(beta)`` for ``2 beta = alpha + 1`` (the linear
     law's 2, TTI's 1.789).
 
