@@ -14,7 +14,8 @@ Above the critical scaled load ``g~_c(alpha, beta, gamma)`` (resp. damping
     ``integrate`` call per iteration over the array of trial values. The search assumes that
     the bead rebounds below the threshold and not above it (e decreases with g~ and gamma,
     reaching 0 like the square root of the distance to the threshold under a load, SPEC
-    section 7). "No rebound" is the integrator's: e = 0, or e below what it resolves (below).
+    section 7). "No rebound" is the integrator's: e = 0, or e below what it resolves
+    (below).
     The bracket grows from (24) by factors of 4, then (where (24) is far off: small g~,
     creep) by factors that square each step, down to 1e-300 and up to 1e300 (or the top of
     the unknown's domain in :data:`sweep.registry.PARAMETERS`, where lower). Returns
@@ -29,9 +30,9 @@ Above the critical scaled load ``g~_c(alpha, beta, gamma)`` (resp. damping
     tol/10 with ``tol``), given as 0 with that bound as e_err. Where e falls that low before
     the threshold, the result is where it does: KK's gamma_c at g~ = 1e-15 is 138 at the
     defaults (where e falls below 1e-10) and 253 with ``tol=1e-13``. At g~ = 0, gamma_c is
-    the theory's where it has one (docs/creep.md, section 4): ``inf`` for ``2 beta > alpha + 1`` (the bead always leaves, with e falling
-    like a power of gamma) and ``2 / sqrt(beta)`` for ``2 beta = alpha + 1`` (the linear
-    law's 2, TTI's 1.789).
+    the theory's where it has one (docs/creep.md, section 4): ``inf`` for
+    ``2 beta > alpha + 1`` (the bead always leaves, with e falling like a power of gamma)
+    and ``2 / sqrt(beta)`` for ``2 beta = alpha + 1`` (the linear law's 2, TTI's 1.789).
 
 Owns: the no-rebound thresholds. May import: registry, :mod:`sweep.api` and
 :mod:`sweep._arrays` (the floor below).
