@@ -885,7 +885,8 @@ def main(argv: list[str] | None = None) -> int:
     previous = {}
     if args.command == "run":
         try:
-            # An ignored one stays ignored: under nohup a closed terminal must not stop it.
+            # An ignored one stays ignored (SIGTERM too, as its parent chose): under nohup a
+            # closed terminal must not stop the run.
             previous = {s: signal.signal(s, _terminate) for s in _STOPPING
                         if signal.getsignal(s) is not signal.SIG_IGN}
         except ValueError:  # not the main thread (embedded use): leave signals alone
@@ -912,7 +913,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     finally:
         for s, handler in previous.items():
-            signal.signal(s, handler)
+            # None: a handler not set from Python, which signal() cannot take back.
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
 
 
 if __name__ == "__main__":  # python -m sweep.cli

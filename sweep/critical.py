@@ -72,7 +72,9 @@ def _constants(alpha, beta):
 
 def _rebounds(alpha, beta, gamma, gtilde, options):
     """Per point: whether it rebounds (e > 0), and whether the integrator decided it."""
-    res = integrate(alpha, beta, gamma, gtilde, **{"rest_tol": SEARCH_REST_TOL, **options})
+    if options.get("rest_tol") is None:      # None is "not given", as integrate takes it
+        options = {**options, "rest_tol": SEARCH_REST_TOL}
+    res = integrate(alpha, beta, gamma, gtilde, **options)
     status = np.asarray(res.status)
     e = np.asarray(res.e)
     rebound = (status == Status.OK) & (e > 0.0)
@@ -112,7 +114,8 @@ def _threshold(evaluate, start, fallback_start, top):
 
     ``evaluate(x, idx) -> (rebound, decided)`` for the points ``idx`` at trial values ``x``.
     ``start``: approximate thresholds (``fallback_start`` where not finite and positive);
-    ``top``: the bracket's upper end (:func:`_top`).
+    ``top``: the bracket's upper end (:func:`_top`). Returns the thresholds and where the
+    integrator could not decide a trial (NaN there).
     """
     size = start.size
     x0 = np.where(np.isfinite(start) & (start > 0.0), start, fallback_start)
@@ -120,13 +123,14 @@ def _threshold(evaluate, start, fallback_start, top):
     hi = np.full(size, np.inf)     # smallest value known not to rebound
     out = np.full(size, np.nan)
     active = np.isfinite(x0) & (x0 > 0.0)
+    undecided = np.zeros(size, dtype=bool)
     expansions = np.zeros(size, dtype=int)
 
     def probe(idx, x):
         rebound, decided = evaluate(x, idx)
         bad = idx[~decided]
         active[bad] = False
-        out[bad] = np.nan
+        undecided[bad] = True
         ok = decided
         up = idx[ok & rebound]
         down = idx[ok & ~rebound]
@@ -154,9 +158,8 @@ def _threshold(evaluate, start, fallback_start, top):
         if idx.size == 0:
             break
         probe(idx, _geometric_mid(lo[idx], hi[idx]))
-    done = active
-    out[done] = hi[done]
-    return out
+    out[active] = hi[active]
+    return out, undecided
 
 
 def _check_method(method, options):
@@ -210,25 +213,29 @@ def _critical(unknown, alpha, beta, known, method, options):
         pt = {"alpha": a[idx], "beta": be[idx], other: x[idx], unknown: trial}
         return _rebounds(*(pt[n] for n in registry.PARAMETER_NAMES), options)
 
-    out = _searched(unknown, evaluate, (a, be, x), valid, approx)
-    _warn_undecided(np.count_nonzero(valid & np.isnan(out)))
+    out, undecided = _searched(unknown, evaluate, (a, be, x), valid, approx)
+    _warn_undecided(np.count_nonzero(undecided))
     return b.restore(out)
 
 
 def _searched(unknown, evaluate, points, valid, approx):
     """The numerical thresholds of ``unknown`` at ``points`` (alpha, beta and the other
-    parameter's values; ``valid``: the points that are; ``approx``: (24) there)."""
+    parameter's values; ``valid``: the points that are; ``approx``: (24) there), and where
+    a trial was undecided."""
     a, be, x = points
+    top = _top(unknown)
     if unknown == "gtilde":
-        # gamma = 0 never sticks: g~_c = inf; the search starts from (24) elsewhere.
-        out = _threshold(evaluate, np.where(x > 0.0, approx, np.nan), np.nan, _top(unknown))
+        # gamma = 0 never sticks: g~_c = inf; the search starts from (24) elsewhere, from
+        # the top where (24) overflows (a subnormal gamma), which then says inf.
+        start = np.where(x > 0.0, np.where(np.isposinf(approx), top, approx), np.nan)
+        out, undecided = _threshold(evaluate, start, np.nan, top)
         out[valid & (x == 0.0)] = np.inf
     else:
-        out = _threshold(evaluate, approx, np.where(valid, 1.0, np.nan), _top(unknown))
+        out, undecided = _threshold(evaluate, approx, np.where(valid, 1.0, np.nan), top)
         exact = _gamma_c_at_zero_load(a, be)
         known_zero = valid & (x == 0.0) & ~np.isnan(exact)
         out[known_zero] = exact[known_zero]
-    return out
+    return out, undecided
 
 
 def _warn_undecided(n: int) -> None:

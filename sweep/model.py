@@ -121,7 +121,8 @@ def time_scale(m: Any, k: Any, v0: Any, alpha: Any) -> Any:
     Raises
     ------
     ValueError
-        Naming the first offending argument and value, or shapes that do not broadcast.
+        Naming the first offending argument and value, shapes that do not broadcast, or
+        inputs whose T is beyond double precision (naming them).
     """
     args = {name: registry.check_array(name, val) for name, val in
             dict(m=m, k=k, v0=v0).items()}
@@ -133,6 +134,15 @@ def time_scale(m: Any, k: Any, v0: Any, alpha: Any) -> Any:
         t = (m / k) ** (1.0 / ap1) * v0 ** ((1.0 - alpha) / ap1)
         logs = np.exp((np.log(m) - np.log(k) + (1.0 - alpha) * np.log(v0)) / ap1)
     t = np.where(np.isfinite(t) & (t > 0.0), t, logs)
+    bad = ~(np.isfinite(t) & (t > 0.0))
+    if bad.any():
+        shape = t.shape
+        i = np.flatnonzero(bad.reshape(-1))[0]
+        at = ", ".join(f"{n}={float(np.broadcast_to(v, shape).reshape(-1)[i])!r}"
+                       for n, v in (("m", m), ("k", k), ("v0", v0), ("alpha", alpha)))
+        raise ValueError(f"T is {float(t.reshape(-1)[i])!r} (beyond double precision) at "
+                         f"{at}; the scaling (2) of these inputs is out of floating-point "
+                         "range")
     return float(t) if t.ndim == 0 else t
 
 

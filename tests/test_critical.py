@@ -1,5 +1,7 @@
 """sweep.critical: no-rebound thresholds g~_c and gamma_c, by (24) and by bisection on the
 numerical CoR (the report's Figs. 8-11)."""
+import warnings
+
 import numpy as np
 import pytest
 
@@ -238,3 +240,13 @@ def test_a_labelled_array_is_pointed_to_apply_ufunc():
     xr = pytest.importorskip("xarray")
     with pytest.raises(TypeError, match="apply_ufunc"):
         K.critical_gtilde(1.5, 1.5, xr.DataArray([0.01, 0.1], dims="gamma"))
+
+
+def test_rest_tol_none_is_not_given_and_an_overflowing_start_is_the_top():
+    # rest_tol=None brought the integrator's 1e-8 box back (36.8 for 80.0); a subnormal
+    # gamma's (24) overflows, and the search gave NaN with a warning of a budget run out.
+    assert K.critical_gamma(1.5, 1.5, 1e-12, method="numeric", rest_tol=None) == \
+        pytest.approx(80.0316, rel=1e-5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert K.critical_gtilde(3.0, 1.0, 1e-310, method="numeric") == np.inf

@@ -199,3 +199,6 @@ def test_time_scale_is_the_unit_of_the_scaling():
         sweep.time_scale(m, k, 1.0, 0.5)
     with pytest.raises(ValueError, match="v0"):
         sweep.time_scale(m, k, -1.0, a)
+    with pytest.raises(ValueError, match=r"T is inf .*at m=1e\+300, k=1e-300, v0=5e-324, "
+                                         r"alpha=99.0"):
+        sweep.time_scale(1e300, 1e-300, [1.0, 5e-324], 99.0)
