@@ -1179,7 +1179,8 @@ def test_a_file_size_limit_is_named_and_the_chunks_are_kept(tmp_path, reference)
 def test_a_directory_in_place_of_a_chunk_file_is_named_or_cleared(tmp_path, monkeypatch,
                                                                    capsys, reference):
     # Its rename failed on every resume ("Is a directory"), with the advice to rerun the
-    # same command, and it was counted among the finished chunks.
+    # same command, once its chunk was computed again, and it counted among the finished
+    # chunks.
     cfg = tmp_path / "c.toml"
     cfg.write_text(GRID)
     out = tmp_path / "out.nc"
@@ -1192,9 +1193,10 @@ def test_a_directory_in_place_of_a_chunk_file_is_named_or_cleared(tmp_path, monk
     empty = partial / "chunk_0000005.npz"
     empty.mkdir()
     argv = ["run", str(cfg), "-o", str(out), "--quiet"]
-    assert cli.main(argv) == 1
-    one_line_error(capsys.readouterr().err, saved[0], "a directory, not a chunk file",
-                   "the 2 finished chunks are kept")
+    assert cli.main(argv) == 1                    # refused before any chunk is computed
+    one_line_error(capsys.readouterr().err, f"cannot resume {out}", saved[0],
+                   "a directory, not a chunk file")
+    assert not empty.exists()
     assert (saved[0] / "notes").read_text() == "kept" and not out.exists()
     (saved[0] / "notes").unlink()
     run(GRID, out)                                # the empty directories give way

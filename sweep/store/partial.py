@@ -510,6 +510,12 @@ class PartialStore:
         # Leftovers of a crashed run: a half-assembled netCDF file and temporary chunks.
         for p in self.dir.glob("*.tmp*"):
             p.unlink()
+        for index in self._directories_for_chunks():
+            try:                # before any chunk is computed that could not be saved
+                self._clear_for_chunk(index)
+            except OSError as exc:
+                raise ResumeError(f"cannot resume {self.output}: {exc.filename} is "
+                                  f"{exc.strerror}") from None
         if self.assembling.exists():
             self.assembling.unlink()
         return self.finished()
@@ -576,6 +582,15 @@ class PartialStore:
                 "start": int(start), "stop": int(stop),
                 "tally": [float(t) for t in tally], "points_sha256": _digest(points or {})}
         write_atomic(self._chunk_path(index), lambda fh: _write_chunk(fh, arrays, meta))
+
+    def _directories_for_chunks(self) -> list[int]:
+        """Indices whose chunk file's name a directory has taken."""
+        out = []
+        for p in self.dir.glob("chunk_*.npz"):
+            with contextlib.suppress(IndexError, ValueError):
+                if p.is_dir():
+                    out.append(int(p.stem.split("_")[1]))
+        return out
 
     def _clear_for_chunk(self, index: int) -> None:
         """Make room for chunk ``index``'s file where a directory has its name (its rename
