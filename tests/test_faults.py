@@ -1082,27 +1082,6 @@ def test_a_chunk_size_past_the_limit_is_refused_before_the_run(tmp_path, through
     assert not (tmp_path / "out.nc.partial").exists()
 
 
-def test_sigterm_exits_143_keeping_the_finished_chunks(tmp_path, monkeypatch, capsys):
-    # A batch system's SIGTERM unwound like Ctrl-C and exited 130, SIGINT's status; a shell
-    # reports a command killed by SIGTERM as 128 + 15.
-    cfg = tmp_path / "c.toml"
-    cfg.write_text(GRID)
-    real, calls = runner.compute_chunk, [0]
-
-    def terminated(*args):
-        calls[0] += 1
-        if calls[0] == 4:                          # the warm-up, then two chunks saved
-            os.kill(os.getpid(), signal.SIGTERM)
-            time.sleep(1.0)                        # the handler raises before this ends
-        return real(*args)
-
-    monkeypatch.setattr(runner, "compute_chunk", terminated)
-    assert cli.main(["run", str(cfg), "-o", str(tmp_path / "out.nc"), "--quiet"]) == 143
-    assert capsys.readouterr().err == "sweep: terminated\n"
-    assert len(list((tmp_path / "out.nc.partial").glob("chunk_*.npz"))) == 2
-    assert signal.getsignal(signal.SIGTERM) is not cli._terminate   # restored
-
-
 def test_the_memory_a_chunk_may_take_is_the_containers_where_that_is_lower(tmp_path,
                                                                            monkeypatch):
     """A container on a large host sees the host's RAM in sysconf; its cgroup limit is what
@@ -1203,32 +1182,36 @@ def test_a_directory_in_place_of_a_chunk_file_is_named_or_cleared(tmp_path, monk
     xr.testing.assert_identical(opened(out), reference["grid"])
 
 
-def test_sighup_exits_129_keeping_the_finished_chunks(tmp_path, monkeypatch, capsys):
-    # A closed terminal's SIGHUP killed the run outright (its default action): the
-    # half-assembled file was left open and the save in flight cut short.
+@pytest.mark.parametrize("signum, status, said", [(signal.SIGTERM, 143, "terminated"),
+                                                  (signal.SIGHUP, 129, "hung up")])
+def test_a_stopping_signal_exits_128_plus_it_keeping_the_finished_chunks(
+        tmp_path, monkeypatch, capsys, signum, status, said):
+    # A batch system's SIGTERM unwound like Ctrl-C and exited 130, SIGINT's status (a shell
+    # reports a command killed by a signal as 128 + its number); a closed terminal's SIGHUP
+    # killed the run outright (its default action), the save in flight cut short.
     cfg = tmp_path / "c.toml"
     cfg.write_text(GRID)
     real, calls = runner.compute_chunk, [0]
 
-    def hung_up(*args):
+    def stopped(*args):
         calls[0] += 1
         if calls[0] == 4:                          # the warm-up, then two chunks saved
-            os.kill(os.getpid(), signal.SIGHUP)
+            os.kill(os.getpid(), signum)
             time.sleep(1.0)                        # the handler raises before this ends
         return real(*args)
 
-    monkeypatch.setattr(runner, "compute_chunk", hung_up)
+    monkeypatch.setattr(runner, "compute_chunk", stopped)
     missed = []                   # a run that does not catch it must not end pytest
 
     def before(signum, frame):
         missed.append(signum)
-    previous = signal.signal(signal.SIGHUP, before)
+    previous = signal.signal(signum, before)
     try:
-        assert cli.main(["run", str(cfg), "-o", str(tmp_path / "out.nc"), "--quiet"]) == 129
-        assert signal.getsignal(signal.SIGHUP) is before and not missed   # restored
+        assert cli.main(["run", str(cfg), "-o", str(tmp_path / "out.nc"), "--quiet"]) == status
+        assert signal.getsignal(signum) is before and not missed   # restored
     finally:
-        signal.signal(signal.SIGHUP, previous)
-    assert capsys.readouterr().err == "sweep: hung up\n"
+        signal.signal(signum, previous)
+    assert capsys.readouterr().err == f"sweep: {said}\n"
     assert len(list((tmp_path / "out.nc.partial").glob("chunk_*.npz"))) == 2
     assert cli.main(["run", str(cfg), "-o", str(tmp_path / "out.nc"), "--quiet"]) == 0
 
