@@ -1235,3 +1235,21 @@ def test_an_ignored_sighup_stays_ignored(tmp_path):
                           text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert (tmp_path / "out.nc").exists()
+
+
+def test_a_failed_close_leaves_no_file_for_the_collector_to_close(tmpfs):
+    # netCDF4 keeps a Dataset whose close failed (HDF5 could not flush to a full disk) open,
+    # and closed it again when collected: later, in any thread, into a thread-unsafe HDF5
+    # (a segfault in the writer thread of a later run in the same process, in CI).
+    from sweep.store import netcdf
+    fs = tmpfs("tiny", "1m")
+    nc = netCDF4.Dataset(fs / "x.nc", "w")
+    nc.createDimension("n", None)
+    var = nc.createVariable("x", "f8", ("n",))
+    with pytest.raises(RuntimeError):
+        for i in range(100):
+            var[i * 10000:(i + 1) * 10000] = np.arange(10000.0) * (i + 1)
+    with pytest.raises(RuntimeError):
+        netcdf.close_once(nc)
+    assert not nc.isopen()
+    netcdf.close_once(nc)                        # closed for good: nothing to raise again

@@ -23,6 +23,7 @@ any floor above the store.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import zlib
 from collections.abc import Mapping, Sequence
@@ -166,7 +167,7 @@ class NetCDFWriter:
         try:
             self._define(attrs or {})
         except BaseException:
-            self._nc.close()
+            close_once(self._nc)
             raise
 
     def _create(self, var: Variable, chunks: tuple, filters: dict) -> None:
@@ -268,7 +269,27 @@ class NetCDFWriter:
         finally:
             self._nc = None
             if nc is not None and nc.isopen():
-                nc.close()
+                close_once(nc)
+
+
+def close_once(nc: Any) -> None:
+    """Close the netCDF4 Dataset ``nc`` for good, re-raising a failed close's error.
+
+    A close that fails (a full disk: HDF5 cannot flush) leaves netCDF4's Dataset open,
+    and netCDF4 closes it again when the object is garbage-collected: at any later moment,
+    in whatever thread the collection runs, into an HDF5 library that is not thread-safe
+    (a segfault in the next run's writer thread, mid-write). netCDF4's own unchecked close,
+    the one its collection would make, is made here instead, at once.
+    """
+    if not nc.isopen():
+        return
+    try:
+        nc.close()
+    except BaseException:
+        if nc.isopen():
+            with contextlib.suppress(Exception):
+                nc._close(False)
+        raise
 
 
 def _fsync_path(path, directory=False):
