@@ -34,15 +34,16 @@ _OWNERS = {
                      "first_order_coefficients", "integrate", "large_gtilde_coefficient"),
                     "sweep.api"),
     "critical_gamma": "sweep.critical", "critical_gtilde": "sweep.critical",
-    "scale": "sweep.model", "time_scale": "sweep.model", "MODELS": "sweep.registry", "Status": "sweep.registry",
+    "scale": "sweep.model", "time_scale": "sweep.model", "MODELS": "sweep.registry",
+    "Status": "sweep.registry",
     "lookup": "sweep.tables", "run": "sweep.sweeps.dataset",
     "CaveatWarning": "sweep.sweeps.runner",
 }
 #: Names read from their owner at every use: registry.register_field rebuilds the class.
 _LIVE = frozenset({"IntegrationResult"})
 
-__all__ = ["__version__", "MODELS", "Status", "scale", "time_scale", "integrate", "cor", "cor_with_status",
-           "cor_fields", "lookup", "run",
+__all__ = ["__version__", "MODELS", "Status", "scale", "time_scale", "integrate", "cor",
+           "cor_with_status", "cor_fields", "lookup", "run",
            "IntegrationResult", "METHODS", "DEFAULT_STEPS", "DEFAULT_MAX_STEPS",
            "DEFAULT_REST_TOL", "APPROXIMATIONS", "coefficients", "coefficients_at_zero",
            "first_order_coefficients", "large_gtilde_coefficient", "SP_C2", "critical_gamma",

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -29,7 +30,7 @@ __all__ = ["integrate", "cor", "cor_with_status", "cor_fields", "IntegrationResu
            "coefficients", "coefficients_at_zero", "first_order_coefficients",
            "large_gtilde_coefficient", "SP_C2", "integrator_settings", "method_settings",
            "recorded_settings", "given_options", "method_arrays",
-           "composite_integrator_settings"]
+           "composite_integrator_settings", "check_integrate_options"]
 
 #: The report's closed-form approximations (Sections 4-5) built into the package.
 APPROXIMATIONS = registry.approximations()
@@ -114,6 +115,25 @@ def recorded_settings(attrs: Any, method: str) -> dict[str, Any]:
     return method_settings(method, opts)
 
 
+def _check_parallel(parallel: Any) -> None:
+    if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
+        # Any truthy object ('no' included) would mean True.
+        raise ValueError(f"parallel must be None, True or False, got {parallel!r}")
+
+
+def check_integrate_options(options: Mapping[str, Any]) -> None:
+    """Refuse a value of an option of :func:`integrate` that its rule rejects (one line
+    naming it), before any point is integrated: for callers that may integrate none.
+
+    Raises
+    ------
+    ValueError
+        As :func:`integrate` would.
+    """
+    _check_parallel(options.get("parallel"))
+    integrator_settings(**{k: v for k, v in options.items() if k != "parallel"})
+
+
 def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | None = None,
               steps: float | None = None, rest_tol: float = DEFAULT_REST_TOL,
               max_steps: int | None = None, refine: bool = True,
@@ -172,9 +192,7 @@ def integrate(alpha: Any, beta: Any, gamma: Any, gtilde: Any, *, tol: float | No
     -------
     IntegrationResult
     """
-    if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
-        # Any truthy object ('no' included) would mean True.
-        raise ValueError(f"parallel must be None, True or False, got {parallel!r}")
+    _check_parallel(parallel)
     opts = integrator_settings(tol=tol, steps=steps, rest_tol=rest_tol, max_steps=max_steps,
                                refine=refine, device=device)
     device = opts.pop("device")

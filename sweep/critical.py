@@ -46,7 +46,7 @@ import numpy as np
 
 from sweep import registry
 from sweep._arrays import Broadcast
-from sweep.api import integrate, integrator_settings, large_gtilde_coefficient
+from sweep.api import check_integrate_options, integrate, large_gtilde_coefficient
 from sweep.registry import Status
 
 __all__ = ["critical_gtilde", "critical_gamma", "RTOL", "SEARCH_REST_TOL"]
@@ -174,10 +174,7 @@ def _check_method(method, options):
                          f"does), got {', '.join(map(repr, options))}")
     if method == "numeric":
         registry.METHODS["numeric"].refuse_unknown(options, extra=("parallel",))
-        integrator_settings(**{k: v for k, v in options.items() if k != "parallel"})
-        parallel = options.get("parallel")
-        if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
-            raise ValueError(f"parallel must be None, True or False, got {parallel!r}")
+        check_integrate_options(options)
 
 
 def _approx(unknown, x, c, r):

@@ -128,7 +128,8 @@ def time_scale(m: Any, k: Any, v0: Any, alpha: Any) -> Any:
             dict(m=m, k=k, v0=v0).items()}
     args["alpha"] = check_exponents(alpha, 1.0)[0]
     check_broadcast(tuple(args), tuple(args.values()))
-    m, k, v0, alpha = (np.asarray(args[n], dtype=np.float64) for n in ("m", "k", "v0", "alpha"))
+    m, k, v0, alpha = (np.asarray(args[n], dtype=np.float64)
+                       for n in ("m", "k", "v0", "alpha"))
     ap1 = alpha + 1.0
     with np.errstate(over="ignore", under="ignore", divide="ignore", invalid="ignore"):
         t = (m / k) ** (1.0 / ap1) * v0 ** ((1.0 - alpha) / ap1)
@@ -136,18 +137,15 @@ def time_scale(m: Any, k: Any, v0: Any, alpha: Any) -> Any:
     t = np.where(np.isfinite(t) & (t > 0.0), t, logs)
     bad = ~(np.isfinite(t) & (t > 0.0))
     if bad.any():
-        shape = t.shape
-        i = np.flatnonzero(bad.reshape(-1))[0]
-        at = ", ".join(f"{n}={float(np.broadcast_to(v, shape).reshape(-1)[i])!r}"
-                       for n, v in (("m", m), ("k", k), ("v0", v0), ("alpha", alpha)))
-        raise ValueError(f"T is {float(t.reshape(-1)[i])!r} (beyond double precision) at "
-                         f"{at}; the scaling (2) of these inputs is out of floating-point "
-                         "range")
+        got, at = _at("T", t, bad, args)
+        raise ValueError(f"T is {got!r} (beyond double precision) at {at}; the scaling (2) "
+                         "of these inputs is out of floating-point range")
     return float(t) if t.ndim == 0 else t
 
 
 #: The inputs each scaled quantity depends on (named when it overflows).
 _DEPENDS = {"g + F/m": ("g", "F", "m"),
+            "T": ("m", "k", "v0", "alpha"),
             "gamma": ("gamma0", "v0", "k", "m", "alpha", "beta"),
             "gtilde": ("m", "k", "v0", "alpha", "g", "F")}
 

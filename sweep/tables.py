@@ -467,9 +467,8 @@ class Table:
         d = np.abs(self(v, f, names) - self.direct(v, f, names))
         d = np.where(np.isnan(d), np.inf, d)  # an invalid point is no agreement
         corners, offsets = self._cell_corners()
-        collapse = self._collapse
-        away = ~collapse[idx, self._cell_of("v0", v), self._cell_of("F", f)]
-        bound, where = self._collapse_bound(corners, offsets, collapse)
+        away = ~self._in_collapse(idx, v, f)
+        bound, where = self._collapse_bound(corners, offsets, self._collapse)
         held = float(d.max()) if d.size else 0.0
         if held >= bound and d.size:
             w = int(np.argmax(d))
@@ -478,7 +477,7 @@ class Table:
                 "max_abs": max(held, bound), "where": where, "held_back_max_abs": held,
                 "median_abs": float(np.median(d)) if d.size else 0.0,
                 "away_max_abs": float(d[away].max()) if away.any() else 0.0,
-                "collapse_cells": int(collapse.sum()), "collapse_bound": bound}
+                "collapse_cells": int(self._collapse.sum()), "collapse_bound": bound}
 
 
 def lookup(dataset: Any, v0: Any, F: Any = None, material: Any = None,

@@ -510,12 +510,9 @@ class PartialStore:
         # Leftovers of a crashed run: a half-assembled netCDF file and temporary chunks.
         for p in self.dir.glob("*.tmp*"):
             p.unlink()
-        for index in self._directories_for_chunks():
-            try:                # before any chunk is computed that could not be saved
-                self._clear_for_chunk(index)
-            except OSError as exc:
-                raise ResumeError(f"cannot resume {self.output}: {exc.filename} is "
-                                  f"{exc.strerror}") from None
+        for _, path in self._chunk_entries():
+            if path.is_dir() and not path.is_symlink():
+                self._clear_directory(path)
         if self.assembling.exists():
             self.assembling.unlink()
         return self.finished()
@@ -546,15 +543,14 @@ class PartialStore:
 
     def finished(self) -> set[int]:
         """Indices of the chunks whose results are saved (not yet verified)."""
-        done = set()
-        for p in self.dir.glob("chunk_*.npz"):
-            if not p.is_file():     # a directory of that name is no chunk (save_chunk)
-                continue
-            try:
-                done.add(int(p.stem.split("_")[1]))
-            except (IndexError, ValueError):
-                continue
-        return done
+        # A directory of that name is no chunk (_clear_directory).
+        return {index for index, path in self._chunk_entries() if path.is_file()}
+
+    def _chunk_entries(self):
+        """``(index, path)`` of every entry of the directory named as a chunk file is."""
+        for path in self.dir.glob("chunk_*.npz"):
+            with contextlib.suppress(IndexError, ValueError):
+                yield int(path.stem.split("_")[1]), path
 
     def save_chunk(self, index: int, start: int, stop: int, arrays: Mapping[str, Any],
                    tally: Sequence[float], points: Mapping[str, Any] | None = None) -> None:
@@ -576,33 +572,22 @@ class PartialStore:
         points : dict of str -> ndarray, optional
             The parameters of the chunk's points, by name.
         """
-        self._clear_for_chunk(index)
         meta = {"format": CHUNK_FORMAT, "identity": self.identity,
                 "config_sha256": self.manifest.get("config_sha256"), "index": int(index),
                 "start": int(start), "stop": int(stop),
                 "tally": [float(t) for t in tally], "points_sha256": _digest(points or {})}
         write_atomic(self._chunk_path(index), lambda fh: _write_chunk(fh, arrays, meta))
 
-    def _directories_for_chunks(self) -> list[int]:
-        """Indices whose chunk file's name a directory has taken."""
-        out = []
-        for p in self.dir.glob("chunk_*.npz"):
-            with contextlib.suppress(IndexError, ValueError):
-                if p.is_dir():
-                    out.append(int(p.stem.split("_")[1]))
-        return out
-
-    def _clear_for_chunk(self, index: int) -> None:
-        """Make room for chunk ``index``'s file where a directory has its name (its rename
-        failed there on every resume): an empty one is removed; another is refused, naming
-        it (OSError), since it is not this store's to delete."""
-        path = self._chunk_path(index)
-        if path.is_dir() and not path.is_symlink():
-            try:
-                path.rmdir()
-            except OSError:
-                raise OSError(errno.EISDIR, "a directory, not a chunk file: move it out of "
-                              "the way", str(path)) from None
+    def _clear_directory(self, path: Path) -> None:
+        """Make room for a chunk's file where a directory has its name (its rename failed
+        there on every resume), before any chunk is computed that could not be saved: an
+        empty one is removed; another is refused, naming it, since it is not this store's
+        to delete."""
+        try:
+            path.rmdir()
+        except OSError:
+            raise ResumeError(f"cannot resume {self.output}: {path} is a directory, not a "
+                              "chunk file: move it out of the way") from None
 
     def load_chunk(self, index: int, start: int, stop: int,
                    points: Mapping[str, Any] | None = None
