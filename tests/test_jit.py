@@ -737,3 +737,64 @@ def test_quick_instruction_variables_keep_out_of_other_releases(release):
     module = types.SimpleNamespace(Inst=inst, Var=object)
     assert not _jit._quick_vars_in(module, release)
     assert vars(inst)["_rec_list_vars"] is _numba_rec_list_vars()
+
+
+def _llvmlite_abi_queries():
+    from llvmlite.ir import types as ir_types
+
+    return [getattr(getattr(ir_types.Type, name), "__wrapped__", getattr(ir_types.Type, name))
+            for name in ("get_abi_size", "get_abi_alignment")]
+
+
+def test_abi_sizes_are_llvm_s_answers_asked_once_per_type(monkeypatch):
+    """During a package compile a type's ABI size and alignment are LLVM's own answers
+    (llvmlite's unwrapped queries, asked afresh here), each asked of LLVM once per type
+    text; an identified structure, whose text is only its name, is asked every time."""
+    if not _jit._abi_sizes_remembered():
+        pytest.skip("llvmlite's ABI queries are not ones ABI_SIZE_SOURCES knows")
+    from llvmlite import ir
+
+    target_data = numba.core.registry.cpu_target.target_context.target_data
+    plain_size, plain_align = _llvmlite_abi_queries()
+    f64, i1, i64 = ir.DoubleType(), ir.IntType(1), ir.IntType(64)
+    kinds = [i1, ir.IntType(8), i64, f64, ir.FloatType(), ir.PointerType(f64),
+             ir.LiteralStructType([f64, i1]), ir.LiteralStructType([i1, f64, i1]),
+             ir.LiteralStructType([i64, ir.LiteralStructType([f64, i1]), i1]),
+             ir.ArrayType(f64, 3), ir.VectorType(f64, 4), ir.VectorType(i1, 3),
+             ir.LiteralStructType([ir.ArrayType(i1, 2), ir.VectorType(f64, 4)])]
+    parsed = []
+    plain_parse = ir.Type._get_ll_global_value_type
+
+    def counted(self, *args, **kwargs):
+        parsed.append(str(self))
+        return plain_parse(self, *args, **kwargs)
+    monkeypatch.setattr(ir.Type, "_get_ll_global_value_type", counted)
+    monkeypatch.setattr(_jit._COLLECTOR, "_nest", ["a package kernel"])
+    for round_ in range(3):
+        before = len(parsed)
+        for t in kinds:
+            assert t.get_abi_size(target_data) == plain_size(t, target_data)
+            assert t.get_abi_alignment(target_data) == plain_align(t, target_data)
+        # The plain queries parse every time; the remembered ones at most in the first round
+        # (earlier compiles may have asked about some of these types already).
+        if round_:
+            assert len(parsed) - before == 2 * len(kinds)
+    # Two identified structures of one name in two contexts: each its own answer.
+    small, large = ir.global_context.get_identified_type("sweep_t"), None
+    small.set_body(i1)
+    other = ir.context.Context()
+    large = other.get_identified_type("sweep_t")
+    large.set_body(ir.ArrayType(f64, 8))
+    parsed.clear()
+    assert small.get_abi_size(target_data) == 1
+    assert large.get_abi_size(target_data, other) == 64
+    assert small.get_abi_size(target_data) == 1 and len(parsed) == 3
+
+
+@pytest.mark.parametrize("release", ["0.68.0", "0.69.0"])
+def test_remembered_abi_sizes_keep_out_of_other_releases(release):
+    plain_size, plain_align = _llvmlite_abi_queries()
+    kind = type("Type", (), {"get_abi_size": plain_size, "get_abi_alignment": plain_align})
+    assert not _jit._remembered_in(kind, release)
+    assert vars(kind)["get_abi_size"] is plain_size
+    assert vars(kind)["get_abi_alignment"] is plain_align

@@ -59,7 +59,7 @@ __all__ = ["kernel_sources", "source_hash", "cache_dir", "kernel_cache", "packag
            "PATCHED_NUMBA", "INLINE_IR_SOURCES", "INLINE_FUNCTION_SOURCES",
            "EXECUTABLE_SOURCES", "ARRAY_OPERATOR_SOURCES", "TARGET_CONFIG_SOURCES",
            "SSA_SOURCES", "LIVE_MAP_SOURCES", "LIST_VARS_SOURCES",
-           "OWN_CHUNK_SLOTS"]
+           "ABI_SIZE_SOURCES", "OWN_CHUNK_SLOTS"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 _PACKAGE = _PACKAGE_DIR.name
@@ -400,6 +400,9 @@ LIVE_MAP_SOURCES = frozenset({"713c4c094977e93b"})
 #: Sources of numba's ``ir.Inst._rec_list_vars`` (0.68.1's) whose list
 #: :func:`_quick_instruction_vars` finds faster.
 LIST_VARS_SOURCES = frozenset({"054700e9100b6299"})
+#: Sources of llvmlite's ``Type.get_abi_size`` and ``get_abi_alignment`` (0.50.0's, which
+#: numba 0.68.1 requires) whose answers :func:`_abi_sizes_remembered` keeps.
+ABI_SIZE_SOURCES = frozenset({"01d00b21d2d646ca", "0b15b89afc4eb5dc"})
 
 
 def _known(functions, sources, version) -> bool:
@@ -432,6 +435,7 @@ def _patch_numba() -> None:
     _ssa_visits_mentioning_blocks()
     _liveness_on_bit_sets()
     _quick_instruction_vars()
+    _abi_sizes_remembered()
 
 
 class _OneMemo:
@@ -885,3 +889,51 @@ def _quick_vars_in(ir, version) -> bool:
         return _numba_ir.vars_in(val, kinds)
     ir.Inst._rec_list_vars = _rec_list_vars
     return True
+
+
+@functools.cache
+def _abi_sizes_remembered() -> bool:
+    """Let numba's questions to LLVM about a type's ABI size and alignment be answered
+    from LLVM's first answer during the package's compiles; True where they are.
+
+    llvmlite answers each by parsing a module made for the question: 1,900 times in the
+    first ``sweep.cor()``, for 36 types, 0.2 s. An answer is kept per target data and type
+    text, for types that name no other (an identified structure's text is only its name:
+    those are asked each time). Applied to llvmlite's sources in
+    :data:`ABI_SIZE_SOURCES` under the releases in :data:`PATCHED_NUMBA`.
+    """
+    from llvmlite.ir import types as ir_types              # noqa: PLC0415 -- numba internals
+
+    return _remembered_in(ir_types.Type, numba.__version__)
+
+
+def _remembered_in(type_class, version) -> bool:
+    """Wrap ``type_class.get_abi_size`` and ``get_abi_alignment``
+    (:func:`_abi_sizes_remembered`) where their sources are those of
+    :data:`ABI_SIZE_SOURCES` under ``version``."""
+    plain = [getattr(type_class, name, None) for name in ("get_abi_size", "get_abi_alignment")]
+    if not _known(plain, ABI_SIZE_SOURCES, version):
+        return False
+    for query in plain:
+        setattr(type_class, query.__name__, _remembered(query))
+    return True
+
+
+def _remembered(plain):
+    """``plain(type, target_data)`` kept per target data and type text during the
+    package's compiles (:func:`_abi_sizes_remembered`)."""
+    known: dict = {}
+
+    @functools.wraps(plain)
+    def query(self, target_data, context=None):
+        if context is not None or _COLLECTOR.depth == 0:
+            return plain(self, target_data, context)
+        text = str(self)
+        if "%" in text:                      # names an identified structure
+            return plain(self, target_data, context)
+        key = (target_data, text)            # the target data kept alive: no reused id
+        value = known.get(key)
+        if value is None:
+            value = known[key] = plain(self, target_data, context)
+        return value
+    return query
