@@ -798,3 +798,96 @@ def test_remembered_abi_sizes_keep_out_of_other_releases(release):
     assert not _jit._remembered_in(kind, release)
     assert vars(kind)["get_abi_size"] is plain_size
     assert vars(kind)["get_abi_alignment"] is plain_align
+
+
+def _looping_module():
+    """An llvmlite module with a loop (a phi that uses an instruction after it), and weak
+    references to its objects."""
+    import weakref
+
+    from llvmlite import ir
+
+    module = ir.Module("taken_apart")
+    i64 = ir.IntType(64)
+    fn = ir.Function(module, ir.FunctionType(i64, [i64]), "count")
+    entry, loop, done = (fn.append_basic_block(n) for n in ("entry", "loop", "done"))
+    b = ir.IRBuilder(entry)
+    b.branch(loop)
+    b.position_at_end(loop)
+    i = b.phi(i64)
+    nxt = b.add(i, ir.Constant(i64, 1))
+    i.add_incoming(ir.Constant(i64, 0), entry)
+    i.add_incoming(nxt, loop)
+    b.cbranch(b.icmp_signed("<", nxt, fn.args[0]), loop, done)
+    b.position_at_end(done)
+    b.ret(nxt)
+    refs = [weakref.ref(x) for x in (module, fn, entry, loop, done, i, nxt)]
+    return module, refs
+
+
+def test_taken_apart_llvmlite_ir_is_freed_without_the_collector():
+    """Taken apart, an llvmlite module's functions, blocks and instructions (which hold one
+    another in cycles) are freed by reference counting alone; left whole, they wait for
+    the cyclic collector."""
+    import weakref
+
+    gc.disable()
+    try:
+        module, refs = _looping_module()
+        del module
+        assert all(r() is not None for r in refs)         # cycles: nothing freed
+        gc.collect()
+        module, refs = _looping_module()
+        handed = weakref.WeakSet([module])
+        _jit._take_apart(handed)
+        assert not handed
+        del module
+        assert [r() for r in refs] == [None] * len(refs)
+    finally:
+        gc.enable()
+
+
+def test_a_package_compile_takes_its_llvmlite_ir_apart_when_it_ends():
+    """The llvmlite modules a package kernel's compile handed to numba's code libraries are
+    taken apart when the compile ends, after their text went to LLVM: the kernel runs, and
+    so do the kernels compiled after it."""
+    if not _jit._llvm_ir_taken_apart():
+        pytest.skip("numba's add_ir_module is not one ADD_IR_SOURCES knows")
+    from numba.core.codegen import CPUCodeLibrary
+
+    handed = []
+    recorded = CPUCodeLibrary.add_ir_module
+
+    def add_ir_module(self, ir_module):
+        handed.append(ir_module)
+        return recorded(self, ir_module)
+
+    def cube(x):
+        return x * x * x
+
+    def kernel(x):
+        return helper(x) + 1.0
+
+    helper = _jit.jit()(cube)
+    kernel = _as_if_in("sweep.kernels.fake_apart", kernel)
+    CPUCodeLibrary.add_ir_module = add_ir_module
+    try:
+        assert kernel(2.0) == 9.0
+    finally:
+        CPUCodeLibrary.add_ir_module = recorded
+    assert handed and not _jit._HANDED
+    assert all(not m.globals for m in handed)
+    (kres,) = kernel.overloads.values()
+    assert "cube" in kres.library.get_llvm_str() or kernel(3.0) == 28.0
+    again = _as_if_in("sweep.kernels.fake_apart", lambda x: helper(x) - 1.0)
+    assert again(2.0) == 7.0 and kernel(3.0) == 28.0
+
+
+@pytest.mark.parametrize("release", ["0.68.0", "0.69.0"])
+def test_taking_llvmlite_ir_apart_keeps_out_of_other_releases(release):
+    from numba.core.codegen import CPUCodeLibrary
+
+    plain = getattr(CPUCodeLibrary.add_ir_module, "__wrapped__", CPUCodeLibrary.add_ir_module)
+    library = type("Library", (), {"add_ir_module": plain})
+    assert not _jit._handed_recorded_in(library, release)
+    assert vars(library)["add_ir_module"] is plain
