@@ -356,6 +356,19 @@ def test_the_inliner_splices_a_package_callee_s_fresh_ir_uncopied(monkeypatch):
     assert len(built) == 4 and not validated[2] & built[2] and not validated[3] & built[3]
 
 
+def _kernel_calling_a_helper(module):
+    """``(helper, kernel)``: a called helper (``x**3``) and a kernel of ``module`` that
+    returns ``helper(x) + 1``, neither compiled yet."""
+    def cube(x):
+        return x * x * x
+
+    def kernel(x):
+        return helper(x) + 1.0
+
+    helper = _jit.jit()(cube)
+    return helper, _as_if_in(module, kernel)
+
+
 def test_a_called_helper_is_compiled_without_machine_code_of_its_own(monkeypatch):
     """A called helper compiled under a package kernel leaves its IR for its callers,
     without module passes of its own, and puts nothing in the JIT engine; the kernel that
@@ -371,15 +384,7 @@ def test_a_called_helper_is_compiled_without_machine_code_of_its_own(monkeypatch
         passes.append(self.name)
         return plain(self)
     monkeypatch.setattr(CPUCodeLibrary, "_optimize_final_module", counted)
-
-    def cube(x):
-        return x * x * x
-
-    def kernel(x):
-        return helper(x) + 1.0
-
-    helper = _jit.jit()(cube)
-    kernel = _as_if_in("sweep.kernels.fake", kernel)
+    helper, kernel = _kernel_calling_a_helper("sweep.kernels.fake")
     assert kernel(2.0) == 9.0
     (cres,) = helper.overloads.values()
     engine = cres.library.codegen._engine
@@ -847,7 +852,7 @@ def test_taken_apart_llvmlite_ir_is_freed_without_the_collector():
         gc.enable()
 
 
-def test_a_package_compile_takes_its_llvmlite_ir_apart_when_it_ends():
+def test_a_package_compile_takes_its_llvmlite_ir_apart_when_it_ends(monkeypatch):
     """The llvmlite modules a package kernel's compile handed to numba's code libraries are
     taken apart when the compile ends, after their text went to LLVM: the kernel runs, and
     so do the kernels compiled after it."""
@@ -862,19 +867,10 @@ def test_a_package_compile_takes_its_llvmlite_ir_apart_when_it_ends():
         handed.append(ir_module)
         return recorded(self, ir_module)
 
-    def cube(x):
-        return x * x * x
-
-    def kernel(x):
-        return helper(x) + 1.0
-
-    helper = _jit.jit()(cube)
-    kernel = _as_if_in("sweep.kernels.fake_apart", kernel)
-    CPUCodeLibrary.add_ir_module = add_ir_module
-    try:
-        assert kernel(2.0) == 9.0
-    finally:
-        CPUCodeLibrary.add_ir_module = recorded
+    helper, kernel = _kernel_calling_a_helper("sweep.kernels.fake_apart")
+    monkeypatch.setattr(CPUCodeLibrary, "add_ir_module", add_ir_module)
+    assert kernel(2.0) == 9.0
+    monkeypatch.undo()
     assert handed and not _jit._HANDED
     assert all(not m.globals for m in handed)
     (kres,) = kernel.overloads.values()
