@@ -874,7 +874,8 @@ def test_a_package_compile_takes_its_llvmlite_ir_apart_when_it_ends(monkeypatch)
     assert handed and not _jit._HANDED
     assert all(not m.globals for m in handed)
     (kres,) = kernel.overloads.values()
-    assert "cube" in kres.library.get_llvm_str() or kernel(3.0) == 28.0
+    # LLVM's own module, which the taken-apart llvmlite objects were the source of, stays.
+    assert "define" in kres.library.get_llvm_str()
     again = _as_if_in("sweep.kernels.fake_apart", lambda x: helper(x) - 1.0)
     assert again(2.0) == 7.0 and kernel(3.0) == 28.0
 
