@@ -201,6 +201,8 @@ def test_grid_errors_name_key_and_value(old, new, expected):
     ('sampler = "sobol"', 'sampler = "halton"', ["design.sampler", "'halton'"]),
     ("seed = 7", "seed = -1", ["design.seed", "-1"]),
     ("seed = 7", "seed = 7\nscramble = 1", ["design.scramble", "true or false"]),
+    # Accepted before, and every seed gave the same design.
+    ("seed = 7", "seed = 7\nscramble = false", ["design.seed", "scramble = false", "7"]),
 ])
 def test_doe_errors_name_key_and_value(old, new, expected):
     assert old in DOE

@@ -518,6 +518,10 @@ def _parse_doe(design):
                              "(all four are fixed; use a grid)", "doe")
     if not scramble and sampler != "sobol":
         design.error("scramble", "applies to the Sobol' sampler only", scramble)
+    if not scramble and design.has("seed"):
+        # The unscrambled sequence is one fixed sequence: a seed there changed nothing.
+        design.error("seed", "has no effect with scramble = false (the unscrambled Sobol' "
+                             "sequence is fixed); remove one of them", seed)
     return DoESpec(sampler=sampler, n=n, seed=seed, scramble=scramble, bounds=bounds)
 
 
