@@ -799,12 +799,6 @@ def _terminate(signum, frame):
     raise _Terminated(signum)
 
 
-#: Signals a run unwinds from as from Ctrl-C (SIGHUP where the platform has it), with the
-#: word ``main`` says.
-_STOPPING = {signal.SIGTERM: "terminated",
-             **({signal.SIGHUP: "hung up"} if hasattr(signal, "SIGHUP") else {})}
-
-
 def _drop_stdout() -> None:
     """Point stdout at devnull, Python's own recipe (its ``signal`` docs, "Note on
     SIGPIPE"): the interpreter's flush at exit does not fail again and print a traceback."""
@@ -882,24 +876,23 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:  # during start-up: the parser imports the reports (numba)
         _say("sweep: interrupted")
         return 130
-    previous = {}
+    stopping = contextlib.nullcontext()
     if args.command == "run":
-        try:
-            # An ignored one stays ignored (SIGTERM too, as its parent chose): under nohup a
-            # closed terminal must not stop the run.
-            previous = {s: signal.signal(s, _terminate) for s in _STOPPING
-                        if signal.getsignal(s) is not signal.SIG_IGN}
-        except ValueError:  # not the main thread (embedded use): leave signals alone
-            previous = {}
+        from sweep.sweeps import runner
+
+        stopping = runner.signals_handled(_terminate, runner.STOP_SIGNALS)
     try:
-        status = args.func(args)
+        with stopping:
+            status = args.func(args)
         with _writing_stdout():
             sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
         return status
     except BrokenPipeError:  # before Exception: it is an OSError, not the input's fault
         return _stdout_closed()
     except _Terminated as stop:
-        _say(f"sweep: {_STOPPING.get(stop.signum, 'terminated')}")
+        from sweep.sweeps.runner import STOP_SIGNALS
+
+        _say(f"sweep: {STOP_SIGNALS.get(stop.signum, 'terminated')}")
         return 128 + stop.signum
     except KeyboardInterrupt:
         _say("sweep: interrupted")
@@ -911,10 +904,6 @@ def main(argv: list[str] | None = None) -> int:
         _say(f"{_command_name(args)}: error: {kind}{_one_line(exc)}"
              + (" (rerun with --debug for the traceback)" if kind else ""))
         return 1
-    finally:
-        for s, handler in previous.items():
-            # None: a handler not set from Python, which signal() cannot take back.
-            signal.signal(s, signal.SIG_DFL if handler is None else handler)
 
 
 if __name__ == "__main__":  # python -m sweep.cli

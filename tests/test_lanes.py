@@ -43,7 +43,9 @@ def _points():
 
 def _one_point(a, b, g, gt, steps, budget):
     e = march_point(a, b, g, gt, steps, DEFAULT_REST_TOL, budget, E_TOL)
-    return np.array([e.kind, e.t, e.u, e.v, e.h, e.u_max, e.n, e.lw, e.lq])
+    # Then u-bar = g~^(1/alpha), the C library's pow as Python's float power is.
+    ubar = gt ** (1.0 / a) if gt > 0.0 else 0.0
+    return np.array([e.kind, e.t, e.u, e.v, e.h, e.u_max, e.n, e.lw, e.lq, ubar])
 
 
 @jit(entry=True)

@@ -51,14 +51,14 @@ import numpy as np
 
 from sweep.kernels._jit import cached_jit, jit
 from sweep.kernels._parallel import map_blocks, parallel_allowed, schedule, threads
-from sweep.kernels.contact import in_domain, make_law
-from sweep.kernels.lanes import N_ENDING, ending_at, march_lanes
+from sweep.kernels.contact import equilibrium, in_domain, make_law, umax_undamped
+from sweep.kernels.lanes import N_ENDING, ending_at, equilibrium_at, march_lanes
 from sweep.kernels.march import march
 from sweep.kernels.balance import COARSE_STEPS, ROUNDING
 from sweep.kernels.outcome import decide, exit_time
 from sweep.kernels.regimes import (creeps_from_start, deep_well, kappa_zero_free,
                                     linear_overdamped, undamped)
-from sweep.kernels.stepsize import policy, q_constants, resolution, tol_share
+from sweep.kernels.stepsize import policy_at, q_constants, resolution, tol_share
 from sweep.registry import METHODS, Status, kernel_fields
 
 __all__ = ["integrate_arrays", "solve_point", "Settings", "settings",
@@ -206,9 +206,10 @@ def _negligible(s):
 
 
 @jit(inline="always")
-def _decided(c, end, steps):
-    """The :class:`Result` of a march that ended with ``end`` at resolution ``steps``."""
-    e, status, err, e_q, e_v = decide(c, end, steps)
+def _decided(c, end, steps, ubar):
+    """The :class:`Result` of a march that ended with ``end`` at resolution ``steps``
+    (``ubar``: the law's equilibrium)."""
+    e, status, err, e_q, e_v = decide(c, end, steps, ubar)
     return Result(e, exit_time(c, end, e, status, err), end.u_max, end.n, status, err, e_q, e_v)
 
 
@@ -219,15 +220,16 @@ def _ended(alpha, beta, gamma, gtilde, i, ends, j, steps):
     """The :class:`Result` of point i's march at resolution ``steps``, whose Ending
     :func:`sweep.kernels.lanes.march_lanes` stored in row j of ``ends``."""
     return _decided(make_law(alpha[i], beta[i], gamma[i], gtilde[i]), ending_at(ends, j),
-                    steps)
+                    steps, equilibrium_at(ends, j))
 
 
 # Inlined (one call site in each of solve_point and _refined): a dispatcher level costs
 # a compile of the whole march below it again.
 @jit(inline="always")
 def _solve_at(c, steps, s, budget, K, K2, Q):
-    return _decided(c, march(c, policy(c, steps), s.rest_tol, budget, K, K2, Q,
-                             _negligible(s)), steps)
+    ubar = equilibrium(c.alpha, c.gtilde)
+    p = policy_at(c, steps, ubar, umax_undamped(c.alpha, c.gtilde, c.ka))
+    return _decided(c, march(c, p, s.rest_tol, budget, K, K2, Q, _negligible(s)), steps, ubar)
 
 
 @jit(inline="always")

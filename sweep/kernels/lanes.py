@@ -79,7 +79,7 @@ from sweep.kernels.vmath import (EVERY_ELEMENT, VECTOR, ieq_bits, ilt_bits, vabs
                                  veq_bits, vgather, vge_bits, vgt_bits, vle_bits, vload, vlt_bits,
                                  vmul, vnan_bits, vselect_bits, vstore, vsub)
 
-__all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
+__all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "equilibrium_at", "N_ENDING"]
 
 #: Points marched at once: 12, three vector groups whose stages' chains overlap. 8 (two
 #: groups) until 2026-12-05 17:55 UTC: 12 or 16 then gave the laws' draws 0-10% more but the
@@ -93,8 +93,10 @@ __all__ = ["LANES", "Lanes", "march_lanes", "ending_at", "N_ENDING"]
 LANES = 12
 if LANES % VECTOR:
     raise ImportError(f"LANES ({LANES}) must be a multiple of vmath.VECTOR ({VECTOR})")
-#: Columns of an Ending stored in a row (:func:`ending_at`).
-N_ENDING = 9
+#: Columns of a row of ``ends``: an Ending's nine (:func:`ending_at`), then the point's
+#: u-bar (:func:`equilibrium_at`), which its decision reads.
+N_ENDING = 10
+_ENDING_UBAR = 9
 # Rows of the lanes' state floats (SF) and ints (SI): the State's fields and its policy's,
 # each a row of the lanes, so that a group of lanes reads and writes a field as a vector.
 _T, _R, _RC, _V, _E0, _QS, _UMAX, _LW, _LQ, _H, _RHO, _SMIN, _STEPS, _OMEGA = range(14)
@@ -322,6 +324,13 @@ def ending_at(E, j):
     """The :class:`~sweep.kernels.march.Ending` that :func:`march_lanes` stored in row j."""
     return Ending(int(E[j, 0]), E[j, 1], E[j, 2], E[j, 3], E[j, 4], E[j, 5], int(E[j, 6]),
                   E[j, 7], E[j, 8])
+
+
+@jit(inline="always")
+def equilibrium_at(E, j):
+    """u-bar of the point whose march :func:`march_lanes` stored in row j: the
+    :func:`~sweep.kernels.contact.equilibrium` its lane marched with, bit for bit."""
+    return E[j, _ENDING_UBAR]
 
 
 # Called, not inlined (two call sites, once per point; inlined, each copied the start of
@@ -592,6 +601,7 @@ def _retired(ln, lane, ends, end):
     """``lane``'s march over: its Ending in its point's row of ``ends``, the lane idle;
     True (it went idle)."""
     _put_end(ends, ln.point[lane], end)
+    ends[ln.point[lane], _ENDING_UBAR] = ln.CR[_UBAR, lane]
     ln.live[lane] = False
     return True
 

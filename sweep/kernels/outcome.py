@@ -52,8 +52,8 @@ import numpy as np
 
 from sweep.kernels._jit import jit
 from sweep.kernels.balance import (ROUNDING, coarse_room, defect_share, q_error, rebound_share,
-                                   swing2)
-from sweep.kernels.contact import KIND_EXPONENTS, ppow_called
+                                   swing2, swing_of)
+from sweep.kernels.contact import KIND_EXPONENTS, ppow_called, well_depth_at
 from sweep.kernels.march import CREEP, EXIT, NEGLIGIBLE, REST, SPENT, TROUGH
 from sweep.registry import Status
 
@@ -221,13 +221,14 @@ def _trough(c, end, h, dq):
 
 
 @jit()
-def decide(c, end, steps):
+def decide(c, end, steps, ubar):
     """``(e, status, e_err, e_q, e_v)`` of the march's :class:`~sweep.kernels.march.Ending`
     for the law ``c`` marched at resolution ``steps`` (module docstring): e_q and e_v are
     the energy balance's and the velocity's values of e where the bead left (NaN where not
-    defined)."""
+    defined). ``ubar``: the law's :func:`~sweep.kernels.contact.equilibrium`, which the
+    caller formed for the march (a pow a point less)."""
     h = end.h
-    swing = swing2(c)
+    swing = swing_of(well_depth_at(ubar, c.alpha, c.gtilde))
     dq = q_error(c, end.u, end.v, h, end.lq, end.n, steps, defect_share(h), swing)
     if end.kind == EXIT:
         return _exit(c, end, h, dq, swing, steps)

@@ -93,7 +93,7 @@ from sweep.sweeps import preflight as _preflight_mod
 from sweep.sweeps import progress as _progress_mod
 
 __all__ = ["ComputePlan", "compute_chunk", "run", "run_in_memory", "RunResult", "RunError",
-           "CaveatWarning",
+           "CaveatWarning", "STOP_SIGNALS", "signals_handled",
            "default_output", "source_sha256", "preflight", "refusal", "estimate_rate"]
 
 
@@ -1211,9 +1211,37 @@ def _stream_chunks(job, partial, done, behind, quiet, client, save=None):
     return totals
 
 
+#: Signals that stop a run as Ctrl-C does, each with the word the command line says as it
+#: stops (SIGHUP where the platform has it): ``sweep run`` unwinds from them, and the runner
+#: holds them, with SIGINT, while it publishes its output (:func:`_signals_deferred`).
+STOP_SIGNALS = {signal.SIGTERM: "terminated",
+                **({signal.SIGHUP: "hung up"} if hasattr(signal, "SIGHUP") else {})}
+
+
+@contextlib.contextmanager
+def signals_handled(handler: Callable, signals) -> Iterator[None]:
+    """Run the block with ``handler`` for each of ``signals``, then restore the handlers.
+
+    A signal the process ignores stays ignored (under nohup a closed terminal must not stop
+    a run). Off the main thread, where Python cannot set handlers (embedded use), the
+    signals are left alone.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {s: signal.signal(s, handler) for s in signals
+                if signal.getsignal(s) is not signal.SIG_IGN}
+    try:
+        yield
+    finally:
+        for s, old in previous.items():
+            # None: a handler not set from Python, which signal() cannot take back.
+            signal.signal(s, signal.SIG_DFL if old is None else old)
+
+
 @contextlib.contextmanager
 def _signals_deferred():
-    """Hold SIGINT, SIGTERM and SIGHUP until the block ends, then deliver them as usual.
+    """Hold SIGINT and :data:`STOP_SIGNALS` until the block ends, then deliver them as usual.
 
     The publication of the output and the invalidation of the partial state must not be
     cut in half by a signal: an interruption there would report a complete output as
@@ -1221,19 +1249,12 @@ def _signals_deferred():
     writer's threads would receive them); Python runs signal handlers in the main thread
     only, so a handler that just records them holds them there.
     """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
     pending = []
-    held = (signal.SIGINT, signal.SIGTERM) + ((signal.SIGHUP,) if hasattr(signal, "SIGHUP")
-                                                else ())
-    previous = {s: signal.signal(s, lambda signum, frame: pending.append(signum))
-                for s in held if signal.getsignal(s) is not signal.SIG_IGN}
     try:
-        yield
+        with signals_handled(lambda signum, frame: pending.append(signum),
+                             (signal.SIGINT, *STOP_SIGNALS)):
+            yield
     finally:
-        for s, handler in previous.items():
-            signal.signal(s, signal.SIG_DFL if handler is None else handler)
         for s in pending:
             signal.raise_signal(s)
 
