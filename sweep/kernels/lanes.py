@@ -625,7 +625,8 @@ def march_lanes(alpha, beta, gamma, gtilde, todo, steps, budget, rest_tol, e_tol
         :func:`sweep.kernels.march.march`.
     ends : ndarray of float64, shape (todo.size, N_ENDING)
         Filled: row j holds the Ending of entry j (read it with :func:`ending_at`), the one
-        :func:`sweep.kernels.march.march` gives for that point, bit for bit.
+        :func:`sweep.kernels.march.march` gives for that point, bit for bit, and the
+        point's u-bar (:func:`equilibrium_at`).
     """
     # One function, the step's per-lane parts written out here: every level of inlining
     # copies the march's step logic once more at compile time (seconds).
