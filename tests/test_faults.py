@@ -1066,6 +1066,38 @@ def test_signals_wait_for_the_end_of_the_publication():
     assert reached
 
 
+def test_signal_handlers_are_restored_ignored_ones_kept_and_other_threads_left_alone():
+    def mine(signum, frame):
+        pass
+
+    def theirs(signum, frame):
+        pass
+
+    saved = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGHUP)}
+    try:
+        signal.signal(signal.SIGTERM, theirs)
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)            # as under nohup
+        with runner.signals_handled(mine, (signal.SIGTERM, signal.SIGHUP)):
+            assert signal.getsignal(signal.SIGTERM) is mine
+            assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+        assert signal.getsignal(signal.SIGTERM) is theirs
+        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+        # Python sets handlers from the main thread only: elsewhere the block just runs.
+        seen = []
+
+        def off_main():
+            with runner.signals_handled(mine, (signal.SIGTERM,)):
+                seen.append(signal.getsignal(signal.SIGTERM))
+
+        worker = threading.Thread(target=off_main)
+        worker.start()
+        worker.join()
+        assert seen == [theirs]
+    finally:
+        for s, handler in saved.items():
+            signal.signal(s, handler)
+
+
 @pytest.mark.parametrize("through", ["argument", "config"])
 def test_a_chunk_size_past_the_limit_is_refused_before_the_run(tmp_path, through):
     # QA scan: sweep.run(chunk_size=2**63), or run.chunk_size = 2**63 (tomllib reads integers
