@@ -9,9 +9,10 @@ callees' compiles taken out of their callers'), the largest ``--top``; and the s
 the parts the package's compile-time patches aim at (``sweep/kernels/_jit.py``): numba's IR
 post-processor (``PostProcessor.run``: use-def sets, live variables, dead maps, after nearly
 every pass and inlined call site), ``add_ir_module`` (the LLVM IR text printed, parsed and
-verified, then LLVM's function passes, which ``llvm_function_passes`` gives alone). ``--plain`` leaves the package's patches of numba out,
-to see what they save in the same minutes (run both, interleaved: the machine's speed
-drifts by a quarter within an hour). Timings only: nothing here is a test.
+verified, then LLVM's function passes, which ``llvm_function_passes`` gives alone).
+``--plain`` leaves the package's patches of numba out, to see what they save in the same
+minutes (run both, interleaved: the machine's speed drifts by a quarter within an hour).
+Timings only: nothing here is a test.
 """
 from __future__ import annotations
 

@@ -704,8 +704,9 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
           "scaled time T_f at the end of the impact (report eq. (3)), in units of T of "
           "eq. (2) (a scene's dataset holds T as time_scale [s]: t_f time_scale is the "
           "contact's duration in seconds), where the bead rebounds (status ok). Where it "
-          "does not (stuck, at_rest), the time at which the integration decided so (a trough, the energy spent, the "
-          "rest box, or e below its error bound, which depends on tol), not a physical end; "
+          "does not (stuck, at_rest), the time at which the integration decided so (a "
+          "trough, the energy spent, the rest box, or e below its error bound, which "
+          "depends on tol), not a physical end; "
           "for a deep load well decided without a march, the undamped swing's duration; inf "
           "where the bead creeps for ever, where the impact lasts longer than double "
           "precision can count (kappa = 0 near critical damping with alpha ~ 100), or where "
@@ -718,9 +719,10 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
     Field("u_max", np.dtype(np.float64), "maximum compression u_M",
           "scaled maximum compression u(tau_0) where v = 0 (Algorithm 1, phase 1), in units "
           "of delta = v0 T of eq. (2) (a scene's dataset holds delta as length_scale [m]); "
-          "NaN where the point was decided before it (a bead that sticks while still compressing: heavily damped or overdamped; a deep load "
-          "well that sticks, unless the damping is too weak to move the undamped swing's "
-          "value) or the step budget ran out before it",
+          "NaN where the point was decided before it (a bead that sticks while still "
+          "compressing: heavily damped or overdamped; a deep load well that sticks, unless "
+          "the damping is too weak to move the undamped swing's value) or the step budget "
+          "ran out before it",
           fill_value=math.nan),
     Field("n_steps", np.dtype(np.int32), "number of integration steps",
           "Runge-Kutta steps taken to integrate eq. (4) for this point"),

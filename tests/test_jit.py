@@ -7,6 +7,7 @@ import subprocess
 import sys
 import textwrap
 import types
+import weakref
 from pathlib import Path
 
 import numba
@@ -785,7 +786,7 @@ def test_abi_sizes_are_llvm_s_answers_asked_once_per_type(monkeypatch):
         if round_:
             assert len(parsed) - before == 2 * len(kinds)
     # Two identified structures of one name in two contexts: each its own answer.
-    small, large = ir.global_context.get_identified_type("sweep_t"), None
+    small = ir.global_context.get_identified_type("sweep_t")
     small.set_body(i1)
     other = ir.context.Context()
     large = other.get_identified_type("sweep_t")
@@ -808,8 +809,6 @@ def test_remembered_abi_sizes_keep_out_of_other_releases(release):
 def _looping_module():
     """An llvmlite module with a loop (a phi that uses an instruction after it), and weak
     references to its objects."""
-    import weakref
-
     from llvmlite import ir
 
     module = ir.Module("taken_apart")
@@ -834,8 +833,6 @@ def test_taken_apart_llvmlite_ir_is_freed_without_the_collector():
     """Taken apart, an llvmlite module's functions, blocks and instructions (which hold one
     another in cycles) are freed by reference counting alone; left whole, they wait for
     the cyclic collector."""
-    import weakref
-
     gc.disable()
     try:
         module, refs = _looping_module()
